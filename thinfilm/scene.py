@@ -1,0 +1,290 @@
+"""Scene files: TOML text -> validated, frozen dataclasses.
+
+A scene names the model (``[model] kind``), its parameters, the load and the discretization.
+Everything is checked here, before anything is computed or written: unknown keys (with the
+closest valid key suggested), wrong types, values out of range, and inconsistent choices.
+Each problem raises :class:`SceneError`, whose message is one line naming the file, the key
+path, the value and what is allowed; the command line prints it and exits with status 2.
+
+The exact one-dimensional scene (``kind = "exact1d"``)::
+
+    [model]
+    kind = "exact1d"
+    length = 0.5        # l0; the film occupies (-length/2, length/2)
+    lam = 10.0          # lambda; or winkler = K/a^4 (= 4 lam^4), exactly one of the two
+    toughness = 0.05    # G/a
+    [load]
+    t_max = 3.0
+    steps = 300         # load steps for the curves; events are located exactly regardless
+    [grid]
+    cells = 1000
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+MODEL_KINDS = ("exact1d",)
+
+
+class SceneError(ValueError):
+    """A scene file that cannot be run; the message is one line for the user.
+
+    Parameters
+    ----------
+    source : str
+        The scene file (or ``"<string>"``).
+    key : str or None
+        Dotted key path, e.g. ``"model.lam"``; None for file-level problems.
+    message : str
+        What is wrong and what is allowed.
+    """
+
+    def __init__(self, source, key, message):
+        self.source = str(source)
+        self.key = key
+        self.detail = message
+        if key is None:
+            text = f"{self.source}: {message}"
+        elif message.startswith("= "):  # "model.lam = -1.0: must be ..."
+            text = f"{self.source}: {key} {message}"
+        else:
+            text = f"{self.source}: {key}: {message}"
+        super().__init__(text)
+
+
+def _show(value):
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "an array"
+    return repr(value)
+
+
+class _Table:
+    """One TOML table being read: typed getters that raise :class:`SceneError`."""
+
+    def __init__(self, source, name, data, allowed):
+        self.source, self.name = source, name
+        if not isinstance(data, dict):
+            raise SceneError(source, name, f"= {_show(data)}: must be a table [{name}]")
+        self.data = data
+        for key in data:
+            if key not in allowed:
+                close = difflib.get_close_matches(key, allowed, n=1, cutoff=0.5)
+                hint = f"; did you mean '{close[0]}'?" if close else ""
+                valid = ", ".join(allowed)
+                raise SceneError(source, self.path(key), f"unknown key{hint} (valid keys in [{name}]: {valid})")
+
+    def path(self, key):
+        return key if self.name == "scene" else f"{self.name}.{key}"
+
+    def has(self, key):
+        return key in self.data
+
+    def _fail(self, key, value, allowed):
+        raise SceneError(self.source, self.path(key), f"= {_show(value)}: {allowed}")
+
+    def _required(self, key):
+        if key not in self.data:
+            raise SceneError(self.source, self.path(key), "missing (required)")
+        return self.data[key]
+
+    def number(self, key, *, minimum=None, exclusive=True, default=None):
+        """A finite real number (TOML float or integer), optionally bounded below."""
+        if default is not None and key not in self.data:
+            return float(default)
+        value = self._required(key)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            self._fail(key, value, "must be a finite number")
+        if minimum is not None:
+            if exclusive and not value > minimum:
+                self._fail(key, value, "must be a positive number" if minimum == 0 else f"must be > {minimum}")
+            if not exclusive and not value >= minimum:
+                self._fail(key, value, f"must be >= {minimum}")
+        return float(value)
+
+    def integer(self, key, *, minimum=None, default=None):
+        """An integer, optionally bounded below (inclusive)."""
+        if default is not None and key not in self.data:
+            return int(default)
+        value = self._required(key)
+        if isinstance(value, bool) or not isinstance(value, int):
+            self._fail(key, value, "must be an integer")
+        if minimum is not None and value < minimum:
+            self._fail(key, value, f"must be an integer >= {minimum}")
+        return int(value)
+
+    def choice(self, key, choices, *, default=None):
+        """A string among ``choices``."""
+        if default is not None and key not in self.data:
+            return default
+        value = self._required(key)
+        if not isinstance(value, str) or value not in choices:
+            self._fail(key, value, "must be one of " + ", ".join(f'"{c}"' for c in choices))
+        return value
+
+
+@dataclass(frozen=True)
+class Exact1DModel:
+    """Film and material of the exact 1D problem.
+
+    Attributes
+    ----------
+    length : float
+        Film length ``l0``; the film occupies ``(-length/2, length/2)`` (units of L).
+    lam : float
+        Internal length scale ``lambda = winkler^(1/4) / sqrt(2)`` (units of 1/L).
+    toughness : float
+        ``G/a``: the energy of one crack (per unit width).
+    """
+
+    length: float
+    lam: float
+    toughness: float
+
+    @property
+    def winkler(self):
+        """Foundation stiffness ``K/a^4 = 4 lam^4``."""
+        return 4.0 * self.lam**4
+
+
+@dataclass(frozen=True)
+class Load:
+    """Monotone loading ``t`` in ``[0, t_max]``, recorded at ``steps`` equal steps."""
+
+    t_max: float
+    steps: int
+
+
+@dataclass(frozen=True)
+class Grid1D:
+    """A uniform grid of ``cells`` cells on the film."""
+
+    cells: int
+
+
+@dataclass(frozen=True)
+class Exact1DScene:
+    """A validated ``kind = "exact1d"`` scene.
+
+    Attributes
+    ----------
+    model : Exact1DModel
+    load : Load
+    grid : Grid1D
+    text : str
+        The scene file's text, stored with the results.
+    source : str
+        Where the scene came from.
+    """
+
+    model: Exact1DModel
+    load: Load
+    grid: Grid1D
+    text: str
+    source: str
+    kind: str = "exact1d"
+
+
+def _lam_or_winkler(model):
+    """Exactly one of ``lam`` and ``winkler`` (= 4 lam^4)."""
+    has_lam, has_winkler = model.has("lam"), model.has("winkler")
+    if has_lam == has_winkler:
+        both = "both are given" if has_lam else "neither is given"
+        raise SceneError(model.source, "model.lam", f"give exactly one of model.lam and model.winkler ({both})")
+    if has_lam:
+        return model.number("lam", minimum=0)
+    return model.number("winkler", minimum=0) ** 0.25 / math.sqrt(2.0)
+
+
+def _parse_exact1d(source, data, text):
+    top = _Table(source, "scene", data, ("model", "load", "grid"))
+    for name in ("model", "load", "grid"):
+        if not top.has(name):
+            raise SceneError(source, name, f"missing table [{name}] (required)")
+    model = _Table(source, "model", data["model"], ("kind", "length", "lam", "winkler", "toughness"))
+    load = _Table(source, "load", data["load"], ("t_max", "steps"))
+    grid = _Table(source, "grid", data["grid"], ("cells",))
+    return Exact1DScene(
+        model=Exact1DModel(
+            length=model.number("length", minimum=0),
+            lam=_lam_or_winkler(model),
+            toughness=model.number("toughness", minimum=0),
+        ),
+        load=Load(t_max=load.number("t_max", minimum=0), steps=load.integer("steps", minimum=2)),
+        grid=Grid1D(cells=grid.integer("cells", minimum=2)),
+        text=text,
+        source=str(source),
+    )
+
+
+_PARSERS = {"exact1d": _parse_exact1d}
+
+
+def parse_scene(text, source="<string>"):
+    """Validate scene text.
+
+    Parameters
+    ----------
+    text : str
+        TOML text of the scene.
+    source : str, optional
+        Name used in error messages.
+
+    Returns
+    -------
+    Exact1DScene
+        The frozen, validated scene.
+
+    Raises
+    ------
+    SceneError
+        On any problem, with a one-line message.
+    """
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(source, None, f"TOML syntax error: {err}") from None
+    model = data.get("model")
+    if not isinstance(model, dict):
+        raise SceneError(source, "model", "missing table [model] (required), with kind = " +
+                         " or ".join(f'"{k}"' for k in MODEL_KINDS))
+    kind = _Table(source, "model", {"kind": model.get("kind")} if "kind" in model else {}, ("kind",))
+    kind = kind.choice("kind", MODEL_KINDS)
+    return _PARSERS[kind](source, data, text)
+
+
+def load_scene(path):
+    """Read and validate a scene file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML scene file.
+
+    Returns
+    -------
+    Exact1DScene
+
+    Raises
+    ------
+    SceneError
+        If the file cannot be read or is not a valid scene.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise SceneError(path, None, "no such file") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as err:
+        raise SceneError(path, None, f"cannot read the scene file ({err.__class__.__name__})") from None
+    return parse_scene(text, source=str(path))
