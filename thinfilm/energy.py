@@ -1,0 +1,121 @@
+"""Energies of the discrete thin-film model and the quadratic alpha-problem.
+
+The discrete energy ``E_h(u, alpha) = P_h(u, alpha, w) + S_h(alpha)`` is defined in
+:mod:`thinfilm.operators` (formulas at interior nodes, free and clamped edges, corners).
+These functions evaluate it; they take the operator objects of that module, which hold the
+grid, the parameters and the boundary conditions.
+
+Units: non-dimensional (MODEL.md); lengths in units of L, energies per the scaling of (2.14).
+Values of ``u`` on clamped nodes are ignored (taken as 0).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import scipy.sparse as sp
+
+from thinfilm.kernels import plate as kernels
+from thinfilm.operators import _nodal
+
+if TYPE_CHECKING:  # pragma: no cover
+    from thinfilm.operators import DamageOperator, PlateOperator
+
+__all__ = [
+    "elastic_energies",
+    "elastic_energy",
+    "bending_density",
+    "surface_energy",
+    "total_energy",
+    "damage_problem",
+    "damage_problem_constant",
+]
+
+
+def elastic_energies(plate: "PlateOperator", u, alpha, w) -> tuple[float, float]:
+    """Bending and foundation energies ``(1/2 Int g W(D^2 u), winkler/2 Int (u - w)^2)``.
+
+    Parameters
+    ----------
+    plate : PlateOperator
+    u, alpha, w : ndarray, shape (n_nodes,)
+        Displacement, damage, substrate displacement ``w_t`` at the nodes.
+
+    Returns
+    -------
+    bending, foundation : float
+    """
+    grid = plate.grid
+    u = _nodal(grid, "u", u)
+    w = _nodal(grid, "w", w)
+    g = plate.degradation(alpha)
+    bending, foundation = kernels.plate_energy(
+        u, g, w, grid.nx, grid.ny, grid.hx, grid.hy, plate.nu, plate.winkler, plate.clamped_flags
+    )
+    return float(bending), float(foundation)
+
+
+def elastic_energy(plate: "PlateOperator", u, alpha, w) -> float:
+    """Elastic energy ``P_h(u, alpha, w)`` = bending + foundation (see :func:`elastic_energies`)."""
+    bending, foundation = elastic_energies(plate, u, alpha, w)
+    return bending + foundation
+
+
+def bending_density(plate: "PlateOperator", u) -> np.ndarray:
+    """Lumped undamaged bending energy ``e`` at the nodes, shape ``(n_nodes,)``.
+
+    ``e_n = omega_n Q_n + 1/4 sum_{cells c around n} hx hy 2 (1 - nu) d_c^2`` (weights included,
+    so ``e`` is an energy, not a density), such that the bending energy at any damage is
+    ``1/2 sum_n g(alpha_n) e_n``. This is the diagonal of the alpha-problem.
+    """
+    grid = plate.grid
+    u = _nodal(grid, "u", u)
+    e = np.empty(grid.n_nodes, dtype=np.float64)
+    kernels.bending_density(u, grid.nx, grid.ny, grid.hx, grid.hy, plate.nu, plate.clamped_flags, e)
+    return e
+
+
+def surface_energy(damage: "DamageOperator", alpha) -> float:
+    """Ambrosio-Tortorelli surface energy ``S_h(alpha)``.
+
+    ``toughness/(4 c_m) Int( alpha^m / eta + eta |grad alpha|^2 )``, ``m = at``, with the
+    trapezoidal rule for the first term and forward differences on grid edges for the
+    second (see :mod:`thinfilm.operators`).
+    """
+    grid = damage.grid
+    alpha = _nodal(grid, "alpha", alpha)
+    return float(
+        kernels.surface_energy(alpha, grid.nx, grid.ny, grid.hx, grid.hy, damage.eta, damage.toughness, damage.at)
+    )
+
+
+def total_energy(plate: "PlateOperator", damage: "DamageOperator", u, alpha, w) -> float:
+    """``E_h(u, alpha) = P_h(u, alpha, w) + S_h(alpha)``."""
+    return elastic_energy(plate, u, alpha, w) + surface_energy(damage, alpha)
+
+
+def damage_problem(plate: "PlateOperator", damage: "DamageOperator", u) -> tuple[sp.csr_matrix, np.ndarray]:
+    """The alpha-problem at fixed ``u``: ``(A, b)`` with
+    ``E_h(u, alpha) = 1/2 alpha.A.alpha - b.alpha + const`` for every ``alpha``.
+
+    ``A = diag(e) + 2 cs eta L [+ diag(2 cs omega/eta), AT2]``, ``b = e [- cs omega/eta, AT1]``,
+    ``cs = toughness/(4 c_m)``, ``omega`` the node weights, ``e`` from :func:`bending_density`,
+    ``L`` the edge Laplacian.
+    The bound constraints (irreversibility, ``alpha <= 1``) are the damage solver's.
+
+    Returns
+    -------
+    A : scipy.sparse.csr_matrix, shape (n_nodes, n_nodes)
+        Owned by ``damage``; its diagonal is rewritten in place by the next call.
+    b : ndarray, shape (n_nodes,)
+    """
+    return damage.problem(bending_density(plate, u))
+
+
+def damage_problem_constant(plate: "PlateOperator", u, w) -> float:
+    """The ``const`` of :func:`damage_problem`: ``1/2 (1 + k_res) sum_n e_n`` + foundation."""
+    grid = plate.grid
+    e = bending_density(plate, u)
+    _, foundation = elastic_energies(plate, u, np.zeros(grid.n_nodes), w)
+    return 0.5 * (1.0 + plate.k_res) * float(np.sum(e)) + foundation

@@ -1,0 +1,378 @@
+r"""Set-up of the discrete plate + Winkler operator and of the damage (alpha) operator.
+
+The discrete energy comes first; the matrices are its exact Hessians, so the u-matrix is
+symmetric, positive definite whenever ``winkler > 0`` (for every ``alpha`` and ``k_res >= 0``),
+and the boundary conditions of free edges are natural.
+
+Discrete energy (non-dimensional, MODEL.md)
+===========================================
+On a :class:`~thinfilm.grid.Grid` with spacings ``hx``, ``hy``, trapezoidal node weights
+``omega_n = omega_x_i omega_y_j`` (``h`` inside, ``h/2`` on the boundary) and nodal degradation
+``g_n = (1 - alpha_n)^2 + k_res``::
+
+    E_h(u, alpha) = P_h(u, alpha, w) + S_h(alpha)
+    P_h = 1/2 sum_n omega_n g_n Q_n(a_n, b_n)                 (bending at nodes)
+        + 1/2 sum_c hx hy gbar_c 2 (1 - nu) d_c^2               (twist at cell centres)
+        + winkler/2 sum_n omega_n (u_n - w_n)^2                 (foundation, w = w_t)
+
+with, at node ``n = (i, j)``,
+
+- ``a_n = (u_{i-1,j} - 2 u_{i,j} + u_{i+1,j}) / hx^2`` (``D_xx u``), ``b_n`` likewise in y;
+- on cell ``c`` with lower-left node ``(i, j)``:
+  ``d_c = (u_{i,j} - u_{i+1,j} - u_{i,j+1} + u_{i+1,j+1}) / (hx hy)`` (``D_xy u`` at the
+  centre) and ``gbar_c`` the mean of ``g`` at the four corners (so the energy is linear in
+  the nodal ``g`` and the alpha-problem stays diagonal + Laplacian);
+- the nodal density ``Q_n``:
+
+  ==========================================  ===========================================
+  node                                        ``Q_n``
+  ==========================================  ===========================================
+  interior (both differences exist)           ``a^2 + b^2 + 2 nu a b``
+  free edge normal to y (``y = y0, y1``)       ``(1 - nu^2) a^2``
+  free edge normal to x (``x = x0, x1``)       ``(1 - nu^2) b^2``
+  corner of two free edges                    ``0``
+  1D grid, interior                           ``a^2`` (1D free end: ``0``)
+  ==========================================  ===========================================
+
+  i.e. ``W = u_xx^2 + u_yy^2 + 2 nu u_xx u_yy + 2 (1 - nu) u_xy^2`` split as
+  ``(u_nn + nu u_tt)^2 + (1 - nu^2) u_tt^2 + twist``; where the normal second difference does
+  not exist (free edge) the first square is the free-edge moment ``M_nn``, which vanishes
+  for the exact solution, and is dropped. At a free-free corner both moments vanish, so
+  ``u_xx = u_yy = 0`` there. This closure is second-order accurate; simply dropping the
+  missing differences (density ``a^2`` on a y-edge) is first order for ``nu > 0``
+  (SOLVER_NOTES.md; measured again in ``tests/test_plate_convergence.py``).
+
+Clamped edges (``u = 0``, ``du/dn = 0``) use a mirrored ghost node: on a clamped edge
+``x = x0`` the missing ``u_{-1,j}`` equals ``u_{1,j}``, so ``a_{0,j} = 2 (u_{1,j} - u_{0,j}) / hx^2``
+and the edge node keeps both second differences (``Q = a^2 + b^2 + 2 nu a b`` with
+``b = 0``). The discrete energy is then exactly half that of the even extension across the
+edge. Nodes on clamped edges are fixed at ``u = 0``: the energy ignores the values stored
+there, and the u-matrix keeps only their diagonal (the Hessian's), decoupled from the rest,
+with a zero right-hand side. A node where a clamped edge meets a free edge takes the
+free-edge closure in the free direction (``(1 - nu^2) a^2`` with the ghost ``a``).
+
+Surface energy (AT1, ``m = 1``, ``c_1 = 2/3``; AT2, ``m = 2``, ``c_2 = 1/2``), gradients by
+forward differences on grid edges, edge weights ``hx omega_y_j`` (x-edges) and
+``omega_x_i hy`` (y-edges)::
+
+    S_h = toughness / (4 c_m) [ sum_n omega_n alpha_n^m / eta
+                                + eta sum_{x-edges} omega_y_j / hx (alpha_{i+1,j} - alpha_{i,j})^2
+                                + eta sum_{y-edges} omega_x_i / hy (alpha_{i,j+1} - alpha_{i,j})^2 ]
+
+The alpha-problem at fixed ``u`` is quadratic: with ``e_n`` the lumped undamaged bending
+energy (``P_bending = 1/2 sum_n g_n e_n``; see :func:`thinfilm.energy.bending_density`),
+``L`` the edge Laplacian (``alpha.L.alpha`` = the gradient sum) and ``cs = toughness/(4 c_m)``::
+
+    E_h = 1/2 alpha.A.alpha - b.alpha + const,
+    A = diag(e) + 2 cs eta L   [+ diag(2 cs omega / eta) for AT2]
+    b = e                      [- cs omega / eta for AT1]
+    const = 1/2 (1 + k_res) sum_n e_n + foundation energy.
+
+All fields follow the flattening convention of :mod:`thinfilm.grid`. Lengths are in units
+of the domain size L, energies in the non-dimensional units of MODEL.md.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from thinfilm.grid import Grid
+from thinfilm.kernels import plate as kernels
+
+__all__ = ["PlateOperator", "DamageOperator", "degradation", "c_m"]
+
+
+def c_m(at: int) -> float:
+    """AT normalization constant: ``c_1 = 2/3``, ``c_2 = 1/2``."""
+    if at not in (1, 2):
+        raise ValueError(f"at = {at!r} must be 1 or 2")
+    return 2.0 / 3.0 if at == 1 else 0.5
+
+
+def degradation(alpha: np.ndarray, k_res: float) -> np.ndarray:
+    """``g(alpha) = (1 - alpha)^2 + k_res``, elementwise, float64."""
+    one_minus = 1.0 - np.asarray(alpha, dtype=np.float64)
+    return one_minus * one_minus + k_res
+
+
+def _finite_scalar(name: str, value, low: float, high: float, low_open: bool, high_open: bool) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} = {value!r} must be a real number") from None
+    ok = math.isfinite(v) and (v > low if low_open else v >= low) and (v < high if high_open else v <= high)
+    if not ok:
+        lb = "(" if low_open else "["
+        hb = ")" if high_open else "]"
+        raise ValueError(f"{name} = {value!r} outside the allowed range {lb}{low}, {high}{hb}")
+    return v
+
+
+def _nodal(grid: Grid, name: str, values) -> np.ndarray:
+    """A nodal field as a C-contiguous float64 array of length ``n_nodes`` (no copy if it is one)."""
+    a = np.ascontiguousarray(values, dtype=np.float64)
+    if a.shape != (grid.n_nodes,):
+        raise ValueError(f"{name} has shape {a.shape}, expected ({grid.n_nodes},) (flat nodal field)")
+    return a
+
+
+class PlateOperator:
+    """The u-problem of the discrete plate + Winkler energy on a structured grid.
+
+    Minimizing ``P_h(u, alpha, w)`` over ``u`` (``alpha`` fixed) means solving
+    ``K(alpha) u = rhs(w)``. The CSR pattern of ``K`` is built once here; :meth:`matrix`
+    rewrites only its values.
+
+    Parameters
+    ----------
+    grid : Grid
+        1D or 2D structured grid.
+    nu : float
+        Poisson ratio, in (-1, 1) (ignored in 1D, where the density is ``u_xx^2``).
+    winkler : float
+        Foundation stiffness ``K/a^4 = 4 lam^4`` >= 0. ``K`` is positive definite for every
+        ``alpha`` if ``winkler > 0``; with ``winkler = 0`` the free plate has the zero modes
+        ``1, x, y``.
+    k_res : float
+        Residual stiffness in ``g(alpha) = (1 - alpha)^2 + k_res``, >= 0.
+    clamped : iterable of str, optional
+        Clamped edges among ``"x0", "x1", "y0", "y1"`` (``"x0", "x1"`` in 1D); the others
+        are free. Default: all free.
+
+    Attributes
+    ----------
+    clamped : tuple of str
+        The clamped edges, in the order of ``grid.edges``.
+    clamped_flags : ndarray of int64, shape (4,)
+        1 for each clamped edge among ``x0, x1, y0, y1``: the form the kernels take.
+    clamped_nodes, free_nodes : ndarray of int64
+        Flat indices of the nodes fixed at ``u = 0`` and of the unknowns.
+    nnz : int
+        Number of stored entries of ``K`` (13 per interior row in 2D, 5 in 1D).
+    """
+
+    def __init__(self, grid: Grid, nu: float, winkler: float, k_res: float, clamped: Iterable[str] = ()):
+        if not isinstance(grid, Grid):
+            raise TypeError(f"grid = {grid!r} must be a thinfilm.grid.Grid")
+        self.grid = grid
+        self.nu = _finite_scalar("nu", nu, -1.0, 1.0, True, True)
+        self.winkler = _finite_scalar("winkler", winkler, 0.0, math.inf, False, True)
+        self.k_res = _finite_scalar("k_res", k_res, 0.0, math.inf, False, True)
+        if isinstance(clamped, str):
+            clamped = (clamped,)
+        clamped = tuple(clamped)
+        for edge in clamped:
+            if edge not in grid.edges:
+                raise ValueError(f"clamped edge {edge!r} not in {grid.edges}")
+        if len(set(clamped)) != len(clamped):
+            raise ValueError(f"clamped = {clamped!r} lists an edge twice")
+        self.clamped = tuple(e for e in grid.edges if e in clamped)
+        self.clamped_flags = np.array([int(e in clamped) for e in ("x0", "x1", "y0", "y1")], dtype=np.int64)
+
+        nodes = [grid.edge_nodes(e) for e in self.clamped]
+        self.clamped_nodes = np.unique(np.concatenate(nodes)) if nodes else np.zeros(0, dtype=np.int64)
+        mask = np.ones(grid.n_nodes, dtype=bool)
+        mask[self.clamped_nodes] = False
+        self.free_nodes = np.flatnonzero(mask).astype(np.int64)
+        self._free_mask = mask
+
+        # Pattern once; the csr_matrix owns (int32 or int64) copies of the indices, the
+        # kernel only needs our int64 indptr to know where each row starts.
+        indptr, indices = kernels.plate_pattern(grid.nx, grid.ny, self.clamped_flags)
+        self._indptr = indptr
+        self._matrix = sp.csr_matrix(
+            (np.zeros(indices.size, dtype=np.float64), indices, indptr), shape=(grid.n_nodes, grid.n_nodes)
+        )
+        self._matrix.has_sorted_indices = True
+        self.nnz = int(indices.size)
+        self._weights_free = np.where(mask, grid.weights, 0.0)
+        self._work = None  # work arrays of apply(), allocated on first use
+
+    # --- helpers --------------------------------------------------------------------------
+    def _args(self):
+        g = self.grid
+        return g.nx, g.ny, g.hx, g.hy, self.nu, self.winkler, self.clamped_flags
+
+    def degradation(self, alpha) -> np.ndarray:
+        """Nodal ``g(alpha) = (1 - alpha)^2 + k_res``, shape ``(n_nodes,)``."""
+        return degradation(_nodal(self.grid, "alpha", alpha), self.k_res)
+
+    # --- the linear system ------------------------------------------------------------
+    def matrix(self, alpha) -> sp.csr_matrix:
+        """The u-matrix ``K(alpha)`` (SPD, shape ``(n_nodes, n_nodes)``).
+
+        The same ``csr_matrix`` object is returned by every call, its ``data`` rewritten in
+        place: copy it (``K.copy()``) to keep the values of an earlier ``alpha``. Do not
+        change its pattern (``eliminate_zeros``, ``sum_duplicates`` on a modified matrix...).
+
+        Parameters
+        ----------
+        alpha : ndarray, shape (n_nodes,)
+            Damage in [0, 1] at the nodes.
+        """
+        g = self.degradation(alpha)
+        nx, ny, hx, hy, nu, winkler, flags = self._args()
+        kernels.plate_values(g, nx, ny, hx, hy, nu, winkler, flags, self._indptr, self._matrix.data)
+        return self._matrix
+
+    def apply(self, alpha, u, out: np.ndarray | None = None) -> np.ndarray:
+        """Matrix-free ``K(alpha) @ u``, equal to ``self.matrix(alpha) @ u`` to round-off.
+
+        Parameters
+        ----------
+        alpha, u : ndarray, shape (n_nodes,)
+        out : ndarray, shape (n_nodes,), optional
+            C-contiguous float64 output array.
+
+        Returns
+        -------
+        ndarray, shape (n_nodes,)
+        """
+        g = self.degradation(alpha)
+        u = _nodal(self.grid, "u", u)
+        if out is None:
+            out = np.empty(self.grid.n_nodes, dtype=np.float64)
+        elif out.dtype != np.float64 or out.shape != (self.grid.n_nodes,) or not out.flags.c_contiguous:
+            raise ValueError("out must be a C-contiguous float64 array of shape (n_nodes,)")
+        if self._work is None:
+            # moments at nodes (2) and on cells: kept between calls, since allocating and
+            # first-touching ~3 N doubles costs as much as the apply itself at 1500^2
+            n_cells = max(self.grid.nx * self.grid.ny, 1)
+            self._work = (np.empty(self.grid.n_nodes), np.empty(self.grid.n_nodes), np.empty(n_cells))
+        mx, my, tw = self._work
+        nx, ny, hx, hy, nu, winkler, flags = self._args()
+        kernels.plate_apply(u, g, nx, ny, hx, hy, nu, winkler, flags, mx, my, tw, out)
+        return out
+
+    def linear_operator(self, alpha) -> spla.LinearOperator:
+        """``K(alpha)`` as a matrix-free ``scipy.sparse.linalg.LinearOperator`` (for Krylov
+        solvers); ``g(alpha)`` is computed once here, not at every product.
+
+        The operator keeps its own work arrays, so it stays valid after later calls of
+        :meth:`apply` or :meth:`matrix`.
+        """
+        g = self.degradation(alpha)
+        n = self.grid.n_nodes
+        nx, ny, hx, hy, nu, winkler, flags = self._args()
+        work = (np.empty(n), np.empty(n), np.empty(max(nx * ny, 1)))
+
+        def matvec(u):
+            u = np.ascontiguousarray(np.ravel(u), dtype=np.float64)
+            y = np.empty(n)
+            kernels.plate_apply(u, g, nx, ny, hx, hy, nu, winkler, flags, *work, y)
+            return y
+
+        return spla.LinearOperator((n, n), matvec=matvec, rmatvec=matvec, dtype=np.float64)
+
+    def rhs(self, w) -> np.ndarray:
+        """Right-hand side ``winkler * omega * w`` of the u-problem (``omega`` the node weights), 0 on
+        clamped nodes.
+
+        Parameters
+        ----------
+        w : ndarray, shape (n_nodes,)
+            Substrate displacement ``w_t`` at the nodes.
+        """
+        return self.winkler * self._weights_free * _nodal(self.grid, "w", w)
+
+    def constrain(self, u) -> np.ndarray:
+        """A copy of ``u`` with the clamped nodes set to 0 (the admissible field it stands for)."""
+        u = np.array(_nodal(self.grid, "u", u))
+        u[self.clamped_nodes] = 0.0
+        return u
+
+    # --- energies (see thinfilm.energy) ---------------------------------------------------
+    def elastic_energy(self, u, alpha, w) -> float:
+        """Elastic energy ``P_h(u, alpha, w)`` = bending + foundation; see
+        :func:`thinfilm.energy.elastic_energy`."""
+        from thinfilm import energy
+
+        return energy.elastic_energy(self, u, alpha, w)
+
+    def bending_density(self, u) -> np.ndarray:
+        """Lumped undamaged bending energy ``e``; see :func:`thinfilm.energy.bending_density`."""
+        from thinfilm import energy
+
+        return energy.bending_density(self, u)
+
+
+class DamageOperator:
+    """The Ambrosio-Tortorelli terms and the alpha-problem on a structured grid.
+
+    Parameters
+    ----------
+    grid : Grid
+    eta : float
+        Regularization length (units of L), > 0.
+    toughness : float
+        ``G/a``, > 0 (energy per unit crack length, non-dimensional).
+    at : int
+        1 (AT1, linear ``alpha/eta``) or 2 (AT2, ``alpha^2/eta``).
+
+    Notes
+    -----
+    The matrix ``A`` of :meth:`problem` shares the pattern of the edge Laplacian, built
+    once; each call rewrites only its diagonal, in place (same object returned each time).
+    """
+
+    def __init__(self, grid: Grid, eta: float, toughness: float, at: int = 1):
+        if not isinstance(grid, Grid):
+            raise TypeError(f"grid = {grid!r} must be a thinfilm.grid.Grid")
+        self.grid = grid
+        self.eta = _finite_scalar("eta", eta, 0.0, math.inf, True, True)
+        self.toughness = _finite_scalar("toughness", toughness, 0.0, math.inf, True, True)
+        if isinstance(at, bool) or at not in (1, 2):
+            raise ValueError(f"at = {at!r} must be 1 or 2")
+        self.at = int(at)
+        self.cs = self.toughness / (4.0 * c_m(self.at))
+
+        indptr, indices, data, diag_pos = kernels.laplacian_pattern(grid.nx, grid.ny, grid.hx, grid.hy)
+        n = grid.n_nodes
+        self._laplacian = sp.csr_matrix((data, indices, indptr), shape=(n, n))
+        self._laplacian.has_sorted_indices = True
+        self._diag_pos = diag_pos
+        # A = 2 cs eta L + diag(e) [+ 2 cs omega/eta]: only the diagonal depends on u.
+        self._A = sp.csr_matrix((2.0 * self.cs * self.eta * data, indices, indptr), shape=(n, n))
+        self._A.has_sorted_indices = True
+        self._diag_fixed = self._A.data[diag_pos].copy()
+        if self.at == 2:
+            self._diag_fixed += 2.0 * self.cs / self.eta * grid.weights
+            self._linear = np.zeros(n)
+        else:
+            self._linear = self.cs / self.eta * grid.weights
+
+    @property
+    def laplacian(self) -> sp.csr_matrix:
+        """Edge Laplacian ``L``, ``alpha.L.alpha = sum_e omega_e (D alpha)_e^2`` (a copy)."""
+        return self._laplacian.copy()
+
+    def surface_energy(self, alpha) -> float:
+        """Surface energy ``S_h(alpha)``; see :func:`thinfilm.energy.surface_energy`."""
+        from thinfilm import energy
+
+        return energy.surface_energy(self, alpha)
+
+    def problem(self, e) -> tuple[sp.csr_matrix, np.ndarray]:
+        """``(A, b)`` of the alpha-problem for the lumped bending energy ``e``.
+
+        Parameters
+        ----------
+        e : ndarray, shape (n_nodes,)
+            Lumped undamaged bending energy (:func:`thinfilm.energy.bending_density`), >= 0.
+
+        Returns
+        -------
+        A : csr_matrix, shape (n_nodes, n_nodes)
+            Symmetric; positive definite for AT2, and for AT1 as soon as ``e > 0`` at one
+            node (the Laplacian's only null vector is the constant). Rewritten in place by
+            the next call.
+        b : ndarray, shape (n_nodes,)
+        """
+        e = _nodal(self.grid, "e", e)
+        self._A.data[self._diag_pos] = self._diag_fixed + e
+        return self._A, e - self._linear
