@@ -1,0 +1,436 @@
+"""The quasi-static evolution engine: alternate minimization, backtracking, nucleation search.
+
+The engine knows nothing of grids or meshes. It drives any model that offers the small
+interface :class:`FractureModel` (the finite-difference plate of :mod:`thinfilm.model` now,
+the finite-element module later):
+
+* at each load step ``t_i``, alternate minimization: ``u = argmin E(., alpha)`` (a linear
+  solve), then ``alpha = argmin E(u, .)`` under ``alpha_{i-1} <= alpha <= 1`` (a
+  bound-constrained QP, :func:`thinfilm.damage.solve_box_qp`), until the largest change of
+  alpha is below ``tol``. Each half-step minimizes the energy exactly, so the energy never
+  increases; the over-relaxed damage update (``omega > 1``, :class:`AltMinOptions`) is
+  accepted only where it does not increase it either;
+* backtracking (dissertation Alg. 3.1): once step ``n`` has converged, a state
+  ``(u_n, alpha_n)`` scaled to ``(t_k/t_n) u_n`` is admissible at every earlier step ``k``
+  (alpha only grows), so if ``P_k + S_k - ((t_k/t_n)^2 P_n + S_n) >= delta`` the evolution
+  goes back to step ``k``, starts it from ``alpha_n`` and marches forward again. Deep
+  backtracking (Alg. 3.2) runs the same test every ``interval`` alternate-minimization
+  iterations, over earlier steps scanned in ``direction`` within ``scope`` steps. Only for
+  loads proportional to ``t``;
+* a nucleation search: alternate minimization only finds stationary points and cannot
+  start a crack where the elastic state is below the damage threshold. After it converges,
+  the model proposes trial states (a crack profile inserted at candidate points of the
+  sound regions); alternate minimization restarts from each, with irreversibility against
+  the previous step only (a trial crack may heal), and the lowest energy is kept.
+
+Every step is recorded (:class:`StepRecord`); a solver that fails raises
+:class:`EvolutionError` naming the step, the iteration and the residual, and the steps
+already done stay with the caller (the ``on_step`` callback has seen each of them).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Protocol, Sequence
+
+import numpy as np
+
+from thinfilm.damage import DamageSolverError, solve_box_qp
+
+
+class EvolutionError(RuntimeError):
+    """A load step could not be computed; the message names step, iteration and residual."""
+
+
+class FractureModel(Protocol):
+    """What the engine needs from a discretized model.
+
+    Attributes
+    ----------
+    n_alpha : int
+        Number of damage unknowns.
+    proportional : bool
+        True if the load is ``w_t = t w_1``, so that at fixed alpha the minimizer ``u``
+        scales with ``t`` and the elastic energy with ``t^2`` (backtracking needs it).
+    """
+
+    n_alpha: int
+    proportional: bool
+
+    def solve_u(self, alpha: np.ndarray, t: float, u0: np.ndarray | None, rtol: float) -> np.ndarray:
+        """Minimize the energy over u at fixed alpha (warm start ``u0``, relative tolerance)."""
+
+    def damage_problem(self, u: np.ndarray, t: float):
+        """``(A, b)`` with ``E(u, alpha) = 1/2 alpha.A.alpha - b.alpha + const(u, t)``."""
+
+    def energies(self, u: np.ndarray, alpha: np.ndarray, t: float) -> tuple[float, float]:
+        """Elastic energy ``P`` and surface energy ``S``."""
+
+    def trial_states(self, u: np.ndarray, alpha: np.ndarray, t: float) -> Sequence[np.ndarray]:
+        """Damage fields with one trial crack each, for the nucleation search."""
+
+
+@dataclass(frozen=True)
+class AltMinOptions:
+    """Alternate minimization.
+
+    Attributes
+    ----------
+    tol : float
+        Convergence when ``max |alpha_new - alpha| < tol``.
+    max_iter : int
+        Iterations per load step before :class:`EvolutionError`.
+    omega : float
+        Over-relaxation of the damage update, in [1, 2): ``alpha <- alpha + omega (alpha* -
+        alpha)`` projected on the bounds, kept only if it does not raise the energy above
+        that of ``alpha*``'s predecessor (1 = plain alternate minimization).
+    u_rtol_min, u_rtol_max : float
+        Linear-solver tolerance range: loose (``u_rtol_max``) while alpha still moves a
+        lot, tightened in proportion to the change of alpha, down to ``u_rtol_min``.
+    damage_rtol : float
+        KKT tolerance of the damage QP.
+    """
+
+    tol: float = 1e-4
+    max_iter: int = 2000
+    omega: float = 1.0
+    u_rtol_min: float = 1e-10
+    u_rtol_max: float = 1e-6
+    damage_rtol: float = 1e-9
+
+
+@dataclass(frozen=True)
+class BacktrackOptions:
+    """Backtracking (Alg. 3.1, ``kind = "standard"``) or deep backtracking (Alg. 3.2).
+
+    Attributes
+    ----------
+    kind : {"none", "standard", "deep"}
+    delta : float
+        Energy gain that triggers a backtrack (``delta_BT`` > 0).
+    interval : int
+        Deep: test every ``interval`` alternate-minimization iterations (``bi``).
+    direction : {1, -1}
+        Deep: scan earlier steps oldest first (+1) or newest first (-1) (``bd``).
+    scope : int
+        Deep: how many earlier steps are scanned (``bs``; 0 = all).
+    max_backtracks : int
+        Total backtracks allowed in one evolution (a guard against cycling).
+    """
+
+    kind: str = "none"
+    delta: float = 1e-6
+    interval: int = 10
+    direction: int = 1
+    scope: int = 0
+    max_backtracks: int = 200
+
+
+@dataclass(frozen=True)
+class SearchOptions:
+    """Nucleation search.
+
+    Attributes
+    ----------
+    enabled : bool
+    delta : float
+        A trial state is kept only if it lowers the total energy by more than ``delta``.
+    rounds : int
+        After a trial is accepted the search is repeated (another crack may follow), at
+        most ``rounds`` times per load step.
+    """
+
+    enabled: bool = False
+    delta: float = 1e-9
+    rounds: int = 3
+
+
+@dataclass
+class StepRecord:
+    """What happened at one load step (the last time it was computed).
+
+    Attributes
+    ----------
+    index : int
+        Step number (1-based; step 0 is the unloaded state).
+    t : float
+        Load.
+    elastic, surface, total : float
+        Energies of the converged state.
+    iterations : int
+        Alternate-minimization iterations of the accepted state (including its trials).
+    u_solves, u_solves_skipped : int
+        Linear solves done, and skipped because alpha had not changed (proportional load).
+    backtracks : int
+        Backtracks triggered from this step.
+    trials, trials_accepted : int
+        Nucleation-search trials tried and kept.
+    time_u, time_alpha, time_total : float
+        Wall-clock seconds in u-solves, alpha-solves and in the whole step.
+    energy_history : list of float
+        Total energy after every half-step of alternate minimization (non-increasing).
+    """
+
+    index: int
+    t: float
+    elastic: float = math.nan
+    surface: float = math.nan
+    total: float = math.nan
+    iterations: int = 0
+    u_solves: int = 0
+    u_solves_skipped: int = 0
+    backtracks: int = 0
+    trials: int = 0
+    trials_accepted: int = 0
+    time_u: float = 0.0
+    time_alpha: float = 0.0
+    time_total: float = 0.0
+    energy_history: list = field(default_factory=list)
+
+
+@dataclass
+class State:
+    """A converged state ``(u, alpha)`` at load ``t`` with its energies."""
+
+    t: float
+    u: np.ndarray
+    alpha: np.ndarray
+    elastic: float
+    surface: float
+
+    @property
+    def total(self):
+        return self.elastic + self.surface
+
+
+class _Backtrack(Exception):
+    """Raised inside alternate minimization when an earlier step is beaten."""
+
+    def __init__(self, k, alpha, u, t_from):
+        self.k, self.alpha, self.u, self.t_from = k, alpha, u, t_from
+
+
+class Engine:
+    """Quasi-static evolution of a :class:`FractureModel` over given loads.
+
+    Parameters
+    ----------
+    model : FractureModel
+    altmin : AltMinOptions, optional
+    backtrack : BacktrackOptions, optional
+    search : SearchOptions, optional
+
+    Raises
+    ------
+    ValueError
+        If backtracking is asked for a load that is not proportional to ``t``.
+    """
+
+    def __init__(self, model, altmin=AltMinOptions(), backtrack=BacktrackOptions(), search=SearchOptions()):
+        if backtrack.kind not in ("none", "standard", "deep"):
+            raise ValueError(f"backtrack.kind = {backtrack.kind!r}: must be one of none, standard, deep")
+        if backtrack.kind != "none" and not model.proportional:
+            raise ValueError(f"backtrack.kind = {backtrack.kind!r}: backtracking needs a load proportional to t"
+                             " (this load is not); use kind = \"none\"")
+        if not 1.0 <= altmin.omega < 2.0:
+            raise ValueError(f"omega = {altmin.omega}: must be in [1, 2)")
+        self.model, self.altmin, self.backtrack, self.search = model, altmin, backtrack, search
+        # u of the last solve and the alpha/t it was computed for: with a proportional load
+        # and unchanged alpha the next u is a multiple of it, no solve needed.
+        self._u_cache = None
+
+    # -- the two half-steps ---------------------------------------------------------------
+    def _solve_u(self, alpha, t, u0, rtol, record):
+        cache = self._u_cache
+        if (self.model.proportional and cache is not None and cache[2] != 0.0
+                and np.array_equal(cache[1], alpha)):
+            record.u_solves_skipped += 1
+            return cache[0] * (t / cache[2])
+        start = time.perf_counter()
+        u = self.model.solve_u(alpha, t, u0, rtol)
+        record.time_u += time.perf_counter() - start
+        record.u_solves += 1
+        self._u_cache = (u, alpha.copy(), t)
+        return u
+
+    def _solve_alpha(self, u, t, alpha, lower, record, step, iteration):
+        start = time.perf_counter()
+        A, b = self.model.damage_problem(u, t)
+        try:
+            result = solve_box_qp(A, b, lower, 1.0, a0=alpha, rtol=self.altmin.damage_rtol)
+        except DamageSolverError as err:
+            raise EvolutionError(f"step {step} (t = {t:g}), alternate-minimization iteration {iteration}:"
+                                 f" damage solver failed: {err}") from err
+        record.time_alpha += time.perf_counter() - start
+        alpha_star = result.a
+        omega = self.altmin.omega
+        if omega != 1.0:
+            # Projected over-relaxation; kept only if the energy at fixed u stays below the
+            # predecessor's, so the overall energy still decreases monotonically.
+            over = np.clip(alpha + omega * (alpha_star - alpha), lower, 1.0)
+            q = lambda a: 0.5 * a @ (A @ a) - b @ a  # noqa: E731
+            if q(over) <= q(alpha):
+                return over
+        return alpha_star
+
+    def _energies(self, u, alpha, t):
+        return self.model.energies(u, alpha, t)
+
+    # -- one load step --------------------------------------------------------------------
+    def alternate_minimization(self, t, alpha0, lower, u0, record, step, history=None):
+        """Alternate minimization at load ``t`` from ``alpha0`` (bounds ``lower <= alpha <= 1``).
+
+        Parameters
+        ----------
+        t : float
+        alpha0, lower : ndarray, shape (n_alpha,)
+        u0 : ndarray or None
+            Warm start of the first u-solve.
+        record : StepRecord
+            Updated with iteration counts, timings and the energy history.
+        step : int
+            Step index (for messages and deep backtracking).
+        history : list of State, optional
+            Converged earlier steps, for deep backtracking.
+
+        Returns
+        -------
+        State
+        """
+        opts = self.altmin
+        alpha = np.maximum(alpha0, lower)
+        u = u0
+        change = math.inf
+        deep = self.backtrack.kind == "deep" and history
+        for iteration in range(1, opts.max_iter + 1):
+            rtol = float(np.clip(1e-2 * change, opts.u_rtol_min, opts.u_rtol_max))
+            u = self._solve_u(alpha, t, u, rtol, record)
+            if not np.all(np.isfinite(u)):
+                raise EvolutionError(f"step {step} (t = {t:g}), alternate-minimization iteration {iteration}:"
+                                     " the displacement is not finite")
+            record.energy_history.append(sum(self._energies(u, alpha, t)))
+            alpha_new = self._solve_alpha(u, t, alpha, lower, record, step, iteration)
+            change = float(np.max(np.abs(alpha_new - alpha))) if alpha.size else 0.0
+            alpha = alpha_new
+            elastic, surface = self._energies(u, alpha, t)
+            record.energy_history.append(elastic + surface)
+            record.iterations += 1
+            if deep and iteration % self.backtrack.interval == 0:
+                self._deep_check(step, t, u, alpha, elastic, surface, history)
+            if change < opts.tol:
+                return State(t, u, alpha, elastic, surface)
+        raise EvolutionError(f"step {step} (t = {t:g}): alternate minimization did not converge in"
+                             f" {opts.max_iter} iterations (last change of alpha {change:.3g}, tol {opts.tol:g})")
+
+    def _beats(self, k_state, t, elastic, surface):
+        scale = (k_state.t / t) ** 2
+        return k_state.total - (scale * elastic + surface) >= self.backtrack.delta
+
+    def _deep_check(self, step, t, u, alpha, elastic, surface, history):
+        n_prev = len(history)
+        scope = self.backtrack.scope or n_prev
+        ks = range(max(n_prev - scope, 0), n_prev)
+        if self.backtrack.direction < 0:
+            ks = reversed(ks)
+        for k in ks:
+            if history[k].t > 0 and self._beats(history[k], t, elastic, surface):
+                raise _Backtrack(k, alpha.copy(), u.copy(), t)
+
+    def _search(self, state, lower, record, step):
+        """Nucleation search from a converged state; returns the best state found."""
+        best = state
+        for _ in range(self.search.rounds):
+            improved = False
+            for trial_alpha in self.model.trial_states(best.u, best.alpha, best.t):
+                record.trials += 1
+                trial_record = StepRecord(step, best.t)
+                trial = self.alternate_minimization(best.t, np.maximum(trial_alpha, lower), lower, best.u,
+                                                    trial_record, step)
+                record.u_solves += trial_record.u_solves
+                record.u_solves_skipped += trial_record.u_solves_skipped
+                record.time_u += trial_record.time_u
+                record.time_alpha += trial_record.time_alpha
+                if trial.total < best.total - self.search.delta:
+                    best, improved = trial, True
+                    record.trials_accepted += 1
+                    record.iterations += trial_record.iterations
+            if not improved:
+                break
+        # The cached u belongs to the last trial: make it that of the kept state.
+        self._u_cache = (best.u, best.alpha.copy(), best.t)
+        return best
+
+    # -- the evolution --------------------------------------------------------------------
+    def run(self, t_values, alpha_initial=None, on_step: Callable[[StepRecord, State], None] | None = None,
+            progress: Callable[[int], None] = lambda n: None):
+        """March over the loads ``t_values`` (increasing, ``t_values[0]`` usually 0).
+
+        Parameters
+        ----------
+        t_values : array_like, shape (N + 1,)
+            Loads; step 0 at ``t_values[0]`` is computed like the others.
+        alpha_initial : ndarray, optional
+            Damage before the first step (default 0).
+        on_step : callable, optional
+            ``on_step(record, state)`` after each step is (re)computed: steps redone after a
+            backtrack are reported again with the same index.
+        progress : callable, optional
+            Called with the number of newly finished steps (for a progress bar; negative
+            after a backtrack).
+
+        Returns
+        -------
+        records : list of StepRecord
+        states : list of State
+        """
+        t_values = np.asarray(t_values, dtype=float)
+        n_alpha = self.model.n_alpha
+        alpha_prev = np.zeros(n_alpha) if alpha_initial is None else np.asarray(alpha_initial, float).copy()
+        states: list[State] = []
+        records: list[StepRecord] = []
+        lowers: list[np.ndarray] = []
+        total_backtracks = 0
+        i = 0
+        alpha_start, u_start = alpha_prev, None
+        while i < len(t_values):
+            t = float(t_values[i])
+            lower = alpha_prev if i == 0 else states[i - 1].alpha
+            record = StepRecord(i, t)
+            started = time.perf_counter()
+            try:
+                state = self.alternate_minimization(t, alpha_start, lower, u_start, record, i,
+                                                    history=states[:i])
+                if self.search.enabled and t > 0:
+                    state = self._search(state, lower, record, i)
+                if self.backtrack.kind != "none":
+                    for k in range(i):
+                        if states[k].t > 0 and self._beats(states[k], t, state.elastic, state.surface):
+                            raise _Backtrack(k, state.alpha.copy(), state.u.copy(), t)
+            except _Backtrack as back:
+                total_backtracks += 1
+                if total_backtracks > self.backtrack.max_backtracks:
+                    raise EvolutionError(f"step {i} (t = {t:g}): more than {self.backtrack.max_backtracks}"
+                                         " backtracks; raise backtrack.max_backtracks or delta") from None
+                record.backtracks += 1
+                k = back.k
+                progress(k - i)
+                del states[k:], records[k:], lowers[k:]
+                alpha_start = back.alpha
+                u_start = back.u * (t_values[k] / back.t_from)
+                i = k
+                continue
+            record.time_total = time.perf_counter() - started
+            record.elastic, record.surface, record.total = state.elastic, state.surface, state.total
+            states.append(state)
+            records.append(record)
+            lowers.append(lower)
+            if on_step is not None:
+                on_step(record, state)
+            progress(1)
+            alpha_start = state.alpha
+            nxt = i + 1
+            u_start = state.u * (t_values[nxt] / t) if nxt < len(t_values) and t != 0 else state.u
+            i = nxt
+        return records, states

@@ -1,0 +1,144 @@
+"""The finite-difference thin-film model as seen by the evolution engine.
+
+:class:`PlateModel` binds a grid, the plate + Winkler operator, the damage operator, a load
+``t -> w_t`` and a linear solver into the :class:`thinfilm.evolution.FractureModel`
+interface: ``solve_u``, ``damage_problem``, ``energies`` and ``trial_states`` (the trial
+cracks of the nucleation search).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from scipy import ndimage
+
+from thinfilm.grid import Grid
+from thinfilm.operators import DamageOperator, PlateOperator
+
+
+def crack_profile(distance, eta, at):
+    """Optimal 1D damage profile across a crack, as a function of the distance to it.
+
+    AT1: ``(1 - d / (2 eta))^2`` for ``d < 2 eta``, 0 beyond; AT2: ``exp(-d / eta)``.
+
+    Parameters
+    ----------
+    distance : ndarray
+        Distance to the crack (units of L), >= 0.
+    eta : float
+    at : {1, 2}
+
+    Returns
+    -------
+    ndarray
+        Damage in [0, 1], same shape as ``distance``.
+    """
+    d = np.asarray(distance, dtype=float)
+    if at == 1:
+        return np.clip(1.0 - d / (2.0 * eta), 0.0, 1.0) ** 2
+    return np.exp(-d / eta)
+
+
+class PlateModel:
+    """A thin film (plate on a Winkler foundation) with AT damage on a structured grid.
+
+    Parameters
+    ----------
+    grid : Grid
+    nu, winkler, k_res : float
+        Poisson ratio, foundation stiffness ``K/a^4``, residual stiffness.
+    eta, toughness : float
+        Regularization length and ``G/a``.
+    at : {1, 2}
+    load : callable
+        ``load(t) -> w_t``, the substrate displacement at the nodes, shape ``(n_nodes,)``.
+    proportional : bool
+        True if ``load(t) = t load(1)``.
+    linear_solver : object
+        With ``update(K)`` and ``solve(f, x0=None, rtol=None) -> (u, info)``
+        (:mod:`thinfilm.linsolve`).
+    clamped : tuple of str, optional
+        Clamped edges.
+    trial_radius : float, optional
+        Radius (units of L) of the fully damaged core of a 2D trial crack (a disk); 0 in 1D.
+    sound_threshold : float, optional
+        Nodes with ``alpha`` below this are "sound" for the nucleation search.
+    """
+
+    def __init__(self, grid: Grid, nu, winkler, k_res, eta, toughness, at, load: Callable, proportional,
+                 linear_solver, clamped=(), trial_radius=0.0, sound_threshold=0.5):
+        self.grid = grid
+        self.plate = PlateOperator(grid, nu, winkler, k_res, clamped=clamped)
+        self.damage = DamageOperator(grid, eta, toughness, at)
+        self.eta, self.at = float(eta), int(at)
+        self.load = load
+        self.proportional = bool(proportional)
+        self.linear_solver = linear_solver
+        self.n_alpha = grid.n_nodes
+        self.trial_radius = float(trial_radius)
+        self.sound_threshold = float(sound_threshold)
+        self.last_solve_info = None
+
+    def solve_u(self, alpha, t, u0, rtol):
+        K = self.plate.matrix(alpha)
+        self.linear_solver.update(K)
+        u, info = self.linear_solver.solve(self.plate.rhs(self.load(t)), x0=u0, rtol=rtol)
+        self.last_solve_info = info
+        return u
+
+    def damage_problem(self, u, t):
+        return self.damage.problem(self.plate.bending_density(u))
+
+    def energies(self, u, alpha, t):
+        return self.plate.elastic_energy(u, alpha, self.load(t)), self.damage.surface_energy(alpha)
+
+    def elastic_density(self, u, alpha, t):
+        """Undamaged bending energy per unit area at the nodes (lumped), shape ``(n_nodes,)``."""
+        return self.plate.bending_density(u) / self.grid.weights
+
+    def candidates(self, u, alpha, t):
+        """Candidate nucleation points: in each sound region, its point of largest elastic
+        energy density and its point farthest from damage and edges (its "middle").
+
+        Returns
+        -------
+        list of int
+            Flat node indices, without repeats.
+        """
+        shape = self.grid.shape
+        sound = (alpha < self.sound_threshold).reshape(shape)
+        density = self.elastic_density(u, alpha, t).reshape(shape)
+        labels, n = ndimage.label(sound)
+        # Distance to damage and to the domain boundary: pad with non-sound nodes.
+        padded = np.pad(sound, 1, constant_values=False)
+        spacing = (self.grid.hx,) if self.grid.dim == 1 else (self.grid.hy, self.grid.hx)  # [j, i] order
+        distance = ndimage.distance_transform_edt(padded, sampling=spacing)[(slice(1, -1),) * sound.ndim]
+        out = []
+        for region in range(1, n + 1):
+            mask = labels == region
+            if mask.sum() < 3:
+                continue
+            for field in (np.where(mask, density, -np.inf), np.where(mask, distance, -np.inf)):
+                node = int(np.ravel_multi_index(np.unravel_index(np.argmax(field), shape), shape))
+                if node not in out:
+                    out.append(node)
+        return out
+
+    def trial_states(self, u, alpha, t):
+        """One damage field per candidate point, with a crack profile inserted there.
+
+        In 1D the trial crack is the optimal profile centred at the node; in 2D a disk of
+        radius ``trial_radius`` fully damaged, with the profile around it, which alternate
+        minimization then grows into a crack or heals.
+        """
+        coords = self.grid.coordinates
+        trials = []
+        for node in self.candidates(u, alpha, t):
+            if self.grid.dim == 1:
+                distance = np.abs(coords[0] - coords[0][node])
+            else:
+                distance = np.hypot(coords[0] - coords[0][node], coords[1] - coords[1][node])
+                distance = np.maximum(distance - self.trial_radius, 0.0)
+            trials.append(np.maximum(alpha, crack_profile(distance, self.eta, self.at)))
+        return trials
