@@ -55,7 +55,7 @@ def test_irreversibility_and_monotone_energy():
 
 def test_over_relaxation_keeps_energy_monotone_and_bounds():
     grid, model = film()
-    engine = Engine(model, AltMinOptions(tol=1e-4, omega=1.6))
+    engine = Engine(model, AltMinOptions(tol=1e-4, acceleration="overrelax", omega=1.6))
     records, states = engine.run(np.linspace(0.0, 2.0, 41))
     for r in records:
         history = np.array(r.energy_history)

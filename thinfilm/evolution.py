@@ -37,6 +37,7 @@ from typing import Callable, Protocol, Sequence
 
 import numpy as np
 
+from thinfilm.acceleration import Anderson
 from thinfilm.damage import DamageSolverError, solve_box_qp
 
 
@@ -82,10 +83,17 @@ class AltMinOptions:
         Convergence when ``max |alpha_new - alpha| < tol``.
     max_iter : int
         Iterations per load step before :class:`EvolutionError`.
+    acceleration : {"none", "overrelax", "anderson"}
+        How the damage update is extrapolated (:mod:`thinfilm.acceleration`); the result is
+        projected on the bounds and kept only if it does not raise the energy at fixed u.
+    anderson_depth : int
+        Differences kept by Anderson acceleration.
     omega : float
-        Over-relaxation of the damage update, in [1, 2): ``alpha <- alpha + omega (alpha* -
+        With ``acceleration = "overrelax"``: over-relaxation of the damage update, in [1, 2): ``alpha <- alpha + omega (alpha* -
         alpha)`` projected on the bounds, kept only if it does not raise the energy above
-        that of ``alpha*``'s predecessor (1 = plain alternate minimization).
+        that of ``alpha*``'s predecessor (1 = plain alternate minimization). Applied only in
+        slow phases (the change of alpha shrinking by less than half per iteration and above
+        ``10 tol``).
     u_rtol_min, u_rtol_max : float
         Linear-solver tolerance range: loose (``u_rtol_max``) while alpha still moves a
         lot, tightened in proportion to the change of alpha, down to ``u_rtol_min``.
@@ -95,7 +103,9 @@ class AltMinOptions:
 
     tol: float = 1e-4
     max_iter: int = 2000
+    acceleration: str = "none"
     omega: float = 1.0
+    anderson_depth: int = 5
     u_rtol_min: float = 1e-10
     u_rtol_max: float = 1e-6
     damage_rtol: float = 1e-9
@@ -234,12 +244,17 @@ class Engine:
         if backtrack.kind != "none" and not model.proportional:
             raise ValueError(f"backtrack.kind = {backtrack.kind!r}: backtracking needs a load proportional to t"
                              " (this load is not); use kind = \"none\"")
+        if altmin.acceleration not in ("none", "overrelax", "anderson"):
+            raise ValueError(f"acceleration = {altmin.acceleration!r}: must be one of none, overrelax, anderson")
         if not 1.0 <= altmin.omega < 2.0:
             raise ValueError(f"omega = {altmin.omega}: must be in [1, 2)")
         self.model, self.altmin, self.backtrack, self.search = model, altmin, backtrack, search
         # u of the last solve and the alpha/t it was computed for: with a proportional load
         # and unchanged alpha the next u is a multiple of it, no solve needed.
         self._u_cache = None
+        #: Work done by the whole evolution, including steps later undone by backtracking and
+        #: rejected trials: alternate-minimization iterations, linear solves, backtracks.
+        self.work = {"iterations": 0, "u_solves": 0, "backtracks": 0, "trials": 0}
 
     # -- the two half-steps ---------------------------------------------------------------
     def _solve_u(self, alpha, t, u0, rtol, record):
@@ -252,10 +267,11 @@ class Engine:
         u = self.model.solve_u(alpha, t, u0, rtol)
         record.time_u += time.perf_counter() - start
         record.u_solves += 1
+        self.work["u_solves"] += 1
         self._u_cache = (u, alpha.copy(), t)
         return u
 
-    def _solve_alpha(self, u, t, alpha, lower, record, step, iteration):
+    def _solve_alpha(self, u, t, alpha, lower, record, step, iteration, relax=False, anderson=None):
         start = time.perf_counter()
         A, b = self.model.damage_problem(u, t)
         try:
@@ -266,13 +282,20 @@ class Engine:
         record.time_alpha += time.perf_counter() - start
         alpha_star = result.a
         omega = self.altmin.omega
-        if omega != 1.0:
-            # Projected over-relaxation; kept only if the energy at fixed u stays below the
+        candidate = None
+        if anderson is not None:
+            candidate = anderson.step(alpha, alpha_star)
+        elif relax and self.altmin.acceleration == "overrelax":
+            candidate = alpha + omega * (alpha_star - alpha)
+        if candidate is not None:
+            # Projected on the bounds and kept only if the energy at fixed u stays below the
             # predecessor's, so the overall energy still decreases monotonically.
-            over = np.clip(alpha + omega * (alpha_star - alpha), lower, 1.0)
+            candidate = np.clip(candidate, lower, 1.0)
             q = lambda a: 0.5 * a @ (A @ a) - b @ a  # noqa: E731
-            if q(over) <= q(alpha):
-                return over
+            if q(candidate) <= q(alpha):
+                return candidate
+            if anderson is not None:
+                anderson.reset()
         return alpha_star
 
     def _energies(self, u, alpha, t):
@@ -303,6 +326,8 @@ class Engine:
         alpha = np.maximum(alpha0, lower)
         u = u0
         change = math.inf
+        changes = []
+        anderson = Anderson(opts.anderson_depth) if opts.acceleration == "anderson" else None
         deep = self.backtrack.kind == "deep" and history
         for iteration in range(1, opts.max_iter + 1):
             rtol = float(np.clip(1e-2 * change, opts.u_rtol_min, opts.u_rtol_max))
@@ -311,12 +336,18 @@ class Engine:
                 raise EvolutionError(f"step {step} (t = {t:g}), alternate-minimization iteration {iteration}:"
                                      " the displacement is not finite")
             record.energy_history.append(sum(self._energies(u, alpha, t)))
-            alpha_new = self._solve_alpha(u, t, alpha, lower, record, step, iteration)
+            # Over-relax only while alternate minimization is in a slow, steady phase (the change
+            # of alpha shrinks by less than half per iteration and is still far from tol): near
+            # convergence an over-relaxed step overshoots and costs iterations instead.
+            relax = len(changes) >= 2 and changes[-1] > 10 * opts.tol and changes[-1] > 0.5 * changes[-2]
+            alpha_new = self._solve_alpha(u, t, alpha, lower, record, step, iteration, relax, anderson)
             change = float(np.max(np.abs(alpha_new - alpha))) if alpha.size else 0.0
+            changes.append(change)
             alpha = alpha_new
             elastic, surface = self._energies(u, alpha, t)
             record.energy_history.append(elastic + surface)
             record.iterations += 1
+            self.work["iterations"] += 1
             if deep and iteration % self.backtrack.interval == 0:
                 self._deep_check(step, t, u, alpha, elastic, surface, history)
             if change < opts.tol:
@@ -345,6 +376,7 @@ class Engine:
             improved = False
             for trial_alpha in self.model.trial_states(best.u, best.alpha, best.t):
                 record.trials += 1
+                self.work["trials"] += 1
                 trial_record = StepRecord(step, best.t)
                 trial = self.alternate_minimization(best.t, np.maximum(trial_alpha, lower), lower, best.u,
                                                     trial_record, step)
@@ -410,6 +442,7 @@ class Engine:
                             raise _Backtrack(k, state.alpha.copy(), state.u.copy(), t)
             except _Backtrack as back:
                 total_backtracks += 1
+                self.work["backtracks"] += 1
                 if total_backtracks > self.backtrack.max_backtracks:
                     raise EvolutionError(f"step {i} (t = {t:g}): more than {self.backtrack.max_backtracks}"
                                          " backtracks; raise backtrack.max_backtracks or delta") from None

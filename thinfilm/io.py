@@ -161,3 +161,131 @@ def read_track(results, track="refined"):
             "parameters": {k: v.item() if hasattr(v, "item") else v for k, v in f["parameters"].attrs.items()},
         }
     return out
+
+
+# -- plate runs ---------------------------------------------------------------------------
+#: Per-step scalar records of a plate run, in /steps (names of thinfilm.evolution.StepRecord).
+STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_solves_skipped",
+               "backtracks", "trials", "trials_accepted", "time_u", "time_alpha", "time_total")
+
+
+class PlateResultsWriter:
+    """``results.h5`` of a plate run, written and flushed step by step.
+
+    Layout::
+
+        /                  attrs as for exact runs (format, kind = "plate", scene, versions...)
+        /parameters        attrs: at, nu, lam, winkler, toughness, eta, k_res, t_max, steps
+        /grid              attrs: dim, x0, x1, nx (and y0, y1, ny); datasets x (nx+1,), y (ny+1,)
+        /steps/<name>      (n,) one value per finished step: t, elastic, surface, total,
+                           iterations, u_solves, u_solves_skipped, backtracks, trials,
+                           trials_accepted, time_u, time_alpha, time_total (seconds)
+        /fields/u          (n, n_nodes) displacement of each finished step
+        /fields/alpha      (n, n_nodes) damage of each finished step
+
+    Nodal fields follow :mod:`thinfilm.grid`'s flattening (``reshape(ny+1, nx+1)`` in 2D).
+    A backtrack to step k truncates every dataset to k steps before step k is rewritten, so
+    the file always holds the current evolution up to its last finished step.
+
+    Parameters
+    ----------
+    path : Path
+    scene : thinfilm.scene.PlateScene
+    grid : thinfilm.grid.Grid
+    """
+
+    def __init__(self, path, scene, grid):
+        self.path = Path(path)
+        self.file = h5py.File(self.path, "w")
+        f = self.file
+        f.attrs.update({
+            "format": FORMAT, "format_version": FORMAT_VERSION, "kind": scene.kind, "scene": scene.text,
+            "scene_source": scene.source, "thinfilm_version": __version__, "numpy_version": np.__version__,
+            "numba_version": numba.__version__, "h5py_version": h5py.__version__,
+            "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        })
+        m = scene.model
+        f.create_group("parameters").attrs.update({
+            "at": m.at, "nu": m.nu, "lam": m.lam, "winkler": m.winkler, "toughness": m.toughness,
+            "eta": m.eta, "k_res": m.k_res, "t_max": scene.load.t_max, "steps": scene.load.steps,
+        })
+        g = f.create_group("grid")
+        g.attrs.update({"dim": grid.dim, "x0": grid.x0, "x1": grid.x1, "nx": grid.nx})
+        g["x"] = np.asarray(grid.x)
+        if grid.dim == 2:
+            g.attrs.update({"y0": grid.y0, "y1": grid.y1, "ny": grid.ny})
+            g["y"] = np.asarray(grid.y)
+        steps = f.create_group("steps")
+        for name in STEP_FIELDS:
+            dtype = np.int64 if name in ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials",
+                                         "trials_accepted") else np.float64
+            steps.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dtype, chunks=(256,))
+        fields = f.create_group("fields")
+        n = grid.n_nodes
+        for name in ("u", "alpha"):
+            fields.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype=np.float64,
+                                  chunks=(1, min(n, 1 << 20)))
+        f.flush()
+
+    def write_step(self, record, state):
+        """Store step ``record.index`` (truncating any later steps) and flush."""
+        k = record.index
+        f = self.file
+        for name in STEP_FIELDS:
+            ds = f["steps"][name]
+            ds.resize((k + 1,))
+            ds[k] = getattr(record, name)
+        for name, values in (("u", state.u), ("alpha", state.alpha)):
+            ds = f["fields"][name]
+            ds.resize((k + 1, ds.shape[1]))
+            ds[k] = values
+        f.flush()
+
+    def close(self):
+        self.file.close()
+
+
+def read_plate(results):
+    """Read a plate ``results.h5``: parameters, grid, per-step records and the alpha fields.
+
+    Returns
+    -------
+    dict
+        ``parameters`` and ``grid`` (dicts of attrs, plus ``x``/``y`` arrays), ``steps``
+        (dict of arrays), ``alpha`` and ``u`` (h5py-free arrays, shape (n, n_nodes)).
+    """
+    with h5py.File(results, "r") as f:
+        grid = {k: v.item() if hasattr(v, "item") else v for k, v in f["grid"].attrs.items()}
+        grid["x"] = f["grid/x"][()]
+        if "y" in f["grid"]:
+            grid["y"] = f["grid/y"][()]
+        return {
+            "parameters": {k: v.item() if hasattr(v, "item") else v for k, v in f["parameters"].attrs.items()},
+            "grid": grid,
+            "steps": {k: v[()] for k, v in f["steps"].items()},
+            "alpha": f["fields/alpha"][()],
+            "u": f["fields/u"][()],
+            "scene": f.attrs["scene"],
+        }
+
+
+def write_plate_summary(path, scene, data, events):
+    """``summary.json`` of a plate run: the crack events and per-step energies and iterations.
+
+    ``{"kind": "plate", "scene": ..., "parameters": {...},
+       "events": [{"t": <load>, "cracks": [<positions along y = 0, sorted>]}, ...],
+       "steps": {"t": [...], "elastic": [...], "surface": [...], "total": [...],
+                 "iterations": [...]}}``
+    """
+    steps = data["steps"]
+    content = {
+        "kind": scene.kind,
+        "scene": scene.source,
+        "parameters": data["parameters"],
+        "events": [{"t": float(t), "cracks": [float(c) for c in cracks]} for t, cracks in events],
+        "steps": {name: steps[name].tolist() for name in ("t", "elastic", "surface", "total", "iterations")},
+    }
+    partial = _atomic_path(Path(path))
+    partial.write_text(json.dumps(content, indent=1) + "\n", encoding="utf-8")
+    os.replace(partial, path)
+    return Path(path)

@@ -86,3 +86,76 @@ def plot_exact1d(results, outdir=None):
     _energy_figure(data, paths[0])
     _cracks_figure(data, paths[1])
     return paths
+
+
+def plot_plate(results, outdir=None):
+    """Draw ``energy.png``, ``cracks.png`` and ``alpha.png`` of a plate results file.
+
+    Parameters
+    ----------
+    results : str or Path
+        ``results.h5`` of a plate run.
+    outdir : str or Path, optional
+        Where to write; defaults to the file's directory.
+
+    Returns
+    -------
+    list of Path
+    """
+    from thinfilm.cracks import crack_positions
+    from thinfilm.io import read_plate
+
+    results = Path(results)
+    outdir = Path(outdir) if outdir is not None else results.parent
+    data = read_plate(results)
+    steps, grid, p = data["steps"], data["grid"], data["parameters"]
+    t = steps["t"]
+    paths = [outdir / "energy.png", outdir / "cracks.png", outdir / "alpha.png"]
+
+    fig, ax = plt.subplots(figsize=(6.0, 4.2), layout="constrained")
+    ax.plot(t, steps["elastic"], color="tab:blue", label="elastic")
+    ax.plot(t, steps["surface"], color="tab:red", label="surface")
+    ax.plot(t, steps["total"], color="black", lw=2, label="total")
+    ax.set_xlabel("load t")
+    ax.set_ylabel("energy")
+    ax.set_title(f"AT{p['at']}, $\\lambda$ = {p['lam']:g}, G/a = {p['toughness']:g}, $\\eta$ = {p['eta']:.3g}")
+    ax.legend()
+    fig.savefig(paths[0], dpi=130)
+    plt.close(fig)
+
+    x = grid["x"]
+    shape = (len(grid["y"]), len(x)) if grid["dim"] == 2 else (len(x),)
+    j = int(np.argmin(np.abs(grid["y"]))) if grid["dim"] == 2 else None
+    fig, ax = plt.subplots(figsize=(6.0, 4.2), layout="constrained")
+    for ti, alpha in zip(t, data["alpha"]):
+        line = alpha.reshape(shape)[j] if j is not None else alpha
+        cracks = crack_positions(x, line)
+        ax.plot(np.full(cracks.shape, ti), cracks, "|", color="tab:red", ms=6)
+    ax.set_xlim(0.0, t[-1])
+    ax.set_ylim(x[0], x[-1])
+    ax.set_xlabel("load t")
+    ax.set_ylabel("crack position x (y = 0)")
+    ax.set_title("cracks (local maxima of alpha > 0.9)")
+    fig.savefig(paths[1], dpi=130)
+    plt.close(fig)
+
+    alpha = data["alpha"][-1].reshape(shape)
+    if grid["dim"] == 1:
+        fig, ax = plt.subplots(figsize=(6.0, 3.0), layout="constrained")
+        ax.plot(x, alpha, color="tab:red")
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_xlabel("x")
+        ax.set_ylabel("alpha")
+    else:
+        y = grid["y"]
+        aspect = (y[-1] - y[0]) / (x[-1] - x[0])
+        fig, ax = plt.subplots(figsize=(7.0, max(1.6, 7.0 * aspect) + 0.8), layout="constrained")
+        im = ax.imshow(alpha, origin="lower", extent=(x[0], x[-1], y[0], y[-1]), vmin=0.0, vmax=1.0,
+                       cmap="magma_r", interpolation="nearest")
+        fig.colorbar(im, ax=ax, label="alpha", shrink=0.8)
+        ax.set_xlabel("x")
+        ax.set_ylabel("y")
+    ax.set_title(f"damage at t = {t[-1]:g}")
+    fig.savefig(paths[2], dpi=130)
+    plt.close(fig)
+    return paths

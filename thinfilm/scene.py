@@ -28,7 +28,7 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
-MODEL_KINDS = ("exact1d",)
+MODEL_KINDS = ("exact1d", "plate")
 
 
 class SceneError(ValueError):
@@ -65,6 +65,8 @@ def _show(value):
     if isinstance(value, dict):
         return "a table"
     if isinstance(value, list):
+        if len(value) <= 6 and all(not isinstance(v, (list, dict)) for v in value):
+            return "[" + ", ".join(_show(v) for v in value) + "]"
         return "an array"
     return repr(value)
 
@@ -122,6 +124,26 @@ class _Table:
         if minimum is not None and value < minimum:
             self._fail(key, value, f"must be an integer >= {minimum}")
         return int(value)
+
+    def boolean(self, key, *, default):
+        """A TOML boolean."""
+        if key not in self.data:
+            return default
+        value = self.data[key]
+        if not isinstance(value, bool):
+            self._fail(key, value, "must be true or false")
+        return value
+
+    def interval(self, key, *, required=True):
+        """A pair ``[a, b]`` of finite numbers with ``a < b``; None if absent and optional."""
+        if key not in self.data and not required:
+            return None
+        value = self._required(key)
+        ok = (isinstance(value, list) and len(value) == 2
+              and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
+        if not ok or not value[0] < value[1]:
+            self._fail(key, value, "must be an interval [a, b] of two finite numbers with a < b")
+        return float(value[0]), float(value[1])
 
     def choice(self, key, choices, *, default=None):
         """A string among ``choices``."""
@@ -227,7 +249,168 @@ def _parse_exact1d(source, data, text):
     )
 
 
-_PARSERS = {"exact1d": _parse_exact1d}
+@dataclass(frozen=True)
+class PlateParameters:
+    """Material and regularization of the thin-film model (non-dimensional, MODEL.md).
+
+    Attributes
+    ----------
+    at : {1, 2}
+        Ambrosio-Tortorelli variant.
+    nu : float
+        Poisson ratio (ignored by a 1D film).
+    lam : float
+        Internal length scale; ``winkler = 4 lam^4``.
+    toughness : float
+        ``G/a``.
+    eta : float
+        Regularization length (units of L).
+    k_res : float
+        Residual stiffness of ``g(alpha) = (1 - alpha)^2 + k_res``.
+    """
+
+    at: int
+    nu: float
+    lam: float
+    toughness: float
+    eta: float
+    k_res: float
+
+    @property
+    def winkler(self):
+        """Foundation stiffness ``K/a^4 = 4 lam^4``."""
+        return 4.0 * self.lam**4
+
+
+@dataclass(frozen=True)
+class Domain:
+    """The film: ``x`` (and ``y`` in 2D) intervals and the number of cells along each."""
+
+    x: tuple
+    y: tuple | None
+    cells: tuple
+
+    @property
+    def dim(self):
+        return 1 if self.y is None else 2
+
+    @property
+    def dx(self):
+        return (self.x[1] - self.x[0]) / self.cells[0]
+
+
+@dataclass(frozen=True)
+class PlateLoad:
+    """``kind = "bending"``: ``w_t = -t x^2 / 2``, t in ``[0, t_max]`` in ``steps`` steps."""
+
+    kind: str
+    t_max: float
+    steps: int
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Numerical choices of a plate run (see :mod:`thinfilm.evolution`)."""
+
+    linear: str = "auto"
+    tol: float = 1e-4
+    max_iter: int = 2000
+    acceleration: str = "none"
+    omega: float = 1.5
+    backtrack: str = "none"
+    backtrack_delta: float = 1e-6
+    backtrack_interval: int = 10
+    backtrack_direction: int = 1
+    backtrack_scope: int = 0
+    search: bool = False
+    search_delta: float = 0.0
+
+
+@dataclass(frozen=True)
+class PlateScene:
+    """A validated ``kind = "plate"`` scene."""
+
+    model: PlateParameters
+    domain: Domain
+    load: PlateLoad
+    solver: SolverOptions
+    text: str
+    source: str
+    kind: str = "plate"
+
+
+def _parse_plate(source, data, text):
+    top = _Table(source, "scene", data, ("model", "domain", "load", "solver"))
+    for name in ("model", "domain", "load"):
+        if not top.has(name):
+            raise SceneError(source, name, f"missing table [{name}] (required)")
+    model = _Table(source, "model", data["model"],
+                   ("kind", "at", "nu", "lam", "winkler", "toughness", "eta", "eta_dx", "k_res"))
+    domain = _Table(source, "domain", data["domain"], ("x", "y", "cells"))
+    load = _Table(source, "load", data["load"], ("kind", "t_max", "steps"))
+    solver = _Table(source, "solver", data.get("solver", {}),
+                    ("linear", "tol", "max_iter", "acceleration", "omega", "backtrack", "backtrack_delta", "backtrack_interval",
+                     "backtrack_direction", "backtrack_scope", "search", "search_delta"))
+
+    x = domain.interval("x")
+    y = domain.interval("y", required=False)
+    cells = domain.data.get("cells")
+    dim = 1 if y is None else 2
+    if dim == 1:
+        cells = (domain.integer("cells", minimum=2),)
+    else:
+        ok = (isinstance(cells, list) and len(cells) == 2
+              and all(isinstance(c, int) and not isinstance(c, bool) and c >= 2 for c in cells))
+        if not ok:
+            domain._fail("cells", cells if cells is not None else "missing",
+                         "must be [nx, ny], two integers >= 2, for a 2D domain (y given)")
+        cells = tuple(cells)
+    dom = Domain(x=x, y=y, cells=cells)
+
+    at = model.integer("at", minimum=1, default=1)
+    if at not in (1, 2):
+        model._fail("at", at, "must be 1 (AT1) or 2 (AT2)")
+    nu = model.number("nu", default=0.3) if model.has("nu") else 0.3
+    if not -1.0 < nu < 0.5:
+        model._fail("nu", nu, "must be in (-1, 0.5)")
+    if model.has("eta") == model.has("eta_dx"):
+        both = "both are given" if model.has("eta") else "neither is given"
+        raise SceneError(source, "model.eta", f"give exactly one of model.eta and model.eta_dx ({both})")
+    eta = model.number("eta", minimum=0) if model.has("eta") else model.number("eta_dx", minimum=0) * dom.dx
+    k_res = model.number("k_res", minimum=0, default=1e-6) if model.has("k_res") else 1e-6
+    params = PlateParameters(at=at, nu=nu, lam=_lam_or_winkler(model), toughness=model.number("toughness", minimum=0),
+                             eta=eta, k_res=k_res)
+
+    plate_load = PlateLoad(kind=load.choice("kind", ("bending",), default="bending"),
+                           t_max=load.number("t_max", minimum=0), steps=load.integer("steps", minimum=2))
+
+    d = SolverOptions()
+    backtrack = solver.choice("backtrack", ("none", "standard", "deep"), default=d.backtrack)
+    direction = solver.integer("backtrack_direction", default=d.backtrack_direction)
+    if direction not in (1, -1):
+        solver._fail("backtrack_direction", direction, "must be 1 (oldest first) or -1 (newest first)")
+    omega = solver.number("omega", default=d.omega) if solver.has("omega") else d.omega
+    if not 1.0 <= omega < 2.0:
+        solver._fail("omega", omega, "must be in [1, 2)")
+    options = SolverOptions(
+        linear=solver.choice("linear", ("auto", "direct", "amg"), default=d.linear),
+        tol=solver.number("tol", minimum=0, default=d.tol) if solver.has("tol") else d.tol,
+        max_iter=solver.integer("max_iter", minimum=1, default=d.max_iter),
+        acceleration=solver.choice("acceleration", ("none", "overrelax", "anderson"), default=d.acceleration),
+        omega=omega,
+        backtrack=backtrack,
+        backtrack_delta=solver.number("backtrack_delta", minimum=0) if solver.has("backtrack_delta") else d.backtrack_delta,
+        backtrack_interval=solver.integer("backtrack_interval", minimum=1, default=d.backtrack_interval),
+        backtrack_direction=direction,
+        backtrack_scope=solver.integer("backtrack_scope", minimum=0, default=d.backtrack_scope),
+        search=solver.boolean("search", default=d.search),
+        search_delta=(solver.number("search_delta", minimum=0, exclusive=False)
+                      if solver.has("search_delta") else 1e-3 * params.toughness),
+    )
+    return PlateScene(model=params, domain=dom, load=plate_load, solver=options, text=text, source=str(source))
+
+
+_PARSERS = {"exact1d": _parse_exact1d, "plate": _parse_plate}
 
 
 def parse_scene(text, source="<string>"):

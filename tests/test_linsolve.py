@@ -1,0 +1,279 @@
+"""Tests of the u-problem linear solvers (thinfilm.linsolve) on plate-like test systems."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from thinfilm.linsolve import (
+    AMGSolver,
+    DirectSolver,
+    LinearSolverError,
+    crack_bands,
+    grid_coords,
+    make_solver,
+    pardiso_available,
+    plate_test_matrix,
+)
+
+M = 48  # nodes per side: 2304 unknowns, fast for every kind
+RTOL = 1e-8
+# lam = 2: at this resolution a realistic lam = 31.6 makes the Winkler term dominate (easy for
+# every solver); lam = 2 keeps the plate term in charge, as on the production grids.
+WINKLER = 4.0 * 2.0**4
+
+DIRECT_BACKENDS = ["superlu"] + (["pardiso"] if pardiso_available() else [])
+ALL_KINDS = [("direct", {"backend": b}) for b in DIRECT_BACKENDS] + [("amg", {})]
+KIND_IDS = [f"direct-{b}" for b in DIRECT_BACKENDS] + ["amg"]
+
+
+def bending_load(m, winkler=WINKLER, t=1.0):
+    """Right-hand side ``winkler * h^2 * w_t`` for the pure-bending load ``w_t = -t x^2 / 2``."""
+    c = grid_coords(m)
+    return winkler * (-t * c[:, 0] ** 2 / 2) / (m - 1) ** 2
+
+
+def relres(K, f, u):
+    return np.linalg.norm(f - K @ u) / np.linalg.norm(f)
+
+
+@pytest.fixture(scope="module")
+def cracked():
+    """A cracked plate and the same plate with the diagonal crack grown by 2 cells."""
+    K1 = plate_test_matrix(crack_bands(M), winkler=WINKLER)
+    K2 = plate_test_matrix(crack_bands(M, grow=2), winkler=WINKLER)
+    return K1, K2, bending_load(M), grid_coords(M)
+
+
+# ---------------------------------------------------------------------------- test matrix
+def test_test_matrix_is_symmetric_with_rigid_nullspace():
+    m = 10
+    K = plate_test_matrix(np.zeros(m * m), winkler=0.0, nu=0.3).toarray()
+    assert np.abs(K - K.T).max() <= 1e-12 * np.abs(K).max()
+    w = np.linalg.eigvalsh(K)
+    assert np.all(w[:3] < 1e-10 * w[-1]) and w[3] > 1e-6 * w[-1]  # exactly 3 zero modes
+    c = grid_coords(m)
+    for v in (np.ones(m * m), c[:, 0], c[:, 1]):
+        assert np.linalg.norm(K @ v) < 1e-9 * np.abs(K).max()
+    assert np.linalg.norm(K @ (c[:, 0] * c[:, 1])) > 1e-3  # twist is not a zero mode
+
+
+def test_test_matrix_pattern_does_not_depend_on_damage():
+    K1 = plate_test_matrix(np.zeros(M * M))
+    K2 = plate_test_matrix(crack_bands(M))
+    assert np.array_equal(K1.indptr, K2.indptr) and np.array_equal(K1.indices, K2.indices)
+    row = K1[(M // 2) * M + M // 2]  # an interior node couples to 13 nodes
+    assert row.nnz == 13
+
+
+# ---------------------------------------------------------------------------- accuracy
+@pytest.mark.parametrize("kind,opts", ALL_KINDS, ids=KIND_IDS)
+def test_solves_to_requested_tolerance_and_matches_spsolve(cracked, kind, opts):
+    K1, _, f, c = cracked
+    ref = spla.spsolve(K1.tocsc(), f)
+    s = make_solver(kind, K1, coords=c, **opts)
+    s.update(K1)
+    for rtol in (1e-6, RTOL):
+        u, info = s.solve(f, rtol=rtol)
+        assert np.all(np.isfinite(u))
+        assert info.residual <= rtol
+        assert relres(K1, f, u) <= rtol * 1.01  # the reported residual is the true one
+        assert info.time >= 0.0 and info.rtol == rtol
+    assert np.linalg.norm(u - ref) / np.linalg.norm(ref) < 1e-5
+
+
+@pytest.mark.parametrize("kind,opts", ALL_KINDS, ids=KIND_IDS)
+def test_callable_form_updates_then_solves(cracked, kind, opts):
+    K1, K2, f, c = cracked
+    s = make_solver(kind, K1, coords=c, **opts)
+    u1, _ = s(K1, f)
+    u2, info = s(K2, f, x0=u1)
+    assert relres(K2, f, u2) <= RTOL
+    assert not np.allclose(u1, u2)
+
+
+def test_direct_refactorizes_only_after_update(cracked):
+    K1, K2, f, _ = cracked
+    s = DirectSolver(K1)
+    s.update(K1)
+    _, i1 = s.solve(f)
+    _, i2 = s.solve(2 * f)
+    s.update(K2)
+    u, i3 = s.solve(f)
+    assert i1.rebuilt and not i2.rebuilt and i3.rebuilt
+    assert relres(K2, f, u) <= RTOL
+
+
+def test_superlu_reused_order_matches_first_factorization(cracked):
+    K1, K2, f, _ = cracked
+    s = DirectSolver(K1, backend="superlu")
+    s.update(K1)
+    s.solve(f)  # orders with MMD_AT_PLUS_A
+    s.update(K2)
+    u, info = s.solve(f)  # reuses the order (NATURAL on the permuted matrix)
+    fresh = DirectSolver(K2, backend="superlu")
+    _, ref = fresh(K2, f)
+    assert info.residual <= max(10 * ref.residual, 1e-12)
+    ref_u = spla.spsolve(K2.tocsc(), f)
+    assert np.linalg.norm(u - ref_u) / np.linalg.norm(ref_u) < 1e-6
+
+
+# ---------------------------------------------------------------------------- AMG reuse
+def test_amg_hierarchy_kept_across_small_damage_changes(cracked):
+    K1, _, f, c = cracked
+    s = AMGSolver(K1, coords=c)
+    s.update(K1)
+    u, first = s.solve(f)
+    assert first.rebuilt and first.iterations <= 60
+    for grow in (1, 2, 3, 4):
+        K = plate_test_matrix(crack_bands(M, grow=grow), winkler=WINKLER)
+        s.update(K)
+        u, info = s.solve(f)  # cold start: compare raw counts with the first solve
+        assert not info.rebuilt
+        assert info.iterations <= first.iterations + 5
+        assert relres(K, f, u) <= RTOL
+    assert s.n_builds == 1
+
+
+def test_amg_rebuilds_when_convergence_degrades(cracked):
+    _, K2, f, c = cracked
+    K0 = plate_test_matrix(np.zeros(M * M), winkler=WINKLER)  # built on the intact plate
+    s = AMGSolver(K0, coords=c, rebuild_factor=1.5, min_rebuild_iterations=1)
+    s.update(K0)
+    _, first = s.solve(f)
+    s.update(K2)  # cracked everywhere: the kept coarse levels no longer fit
+    u, stale = s.solve(f)
+    assert not stale.rebuilt and relres(K2, f, u) <= RTOL
+    assert stale.iterations > 1.5 * first.iterations
+    u, again = s.solve(f)
+    assert again.rebuilt and s.n_builds == 2
+    assert again.iterations < stale.iterations
+    assert relres(K2, f, u) <= RTOL
+
+
+def test_amg_stale_hierarchy_that_fails_is_rebuilt_and_retried(cracked):
+    _, K2, f, c = cracked
+    K0 = plate_test_matrix(np.zeros(M * M), winkler=WINKLER)
+    s = AMGSolver(K0, coords=c, maxiter=25)
+    s.update(K0)
+    s.solve(f)
+    s.update(K2)
+    u, info = s.solve(f)  # the stale hierarchy needs more than 25: rebuild within the call
+    assert info.rebuilt and s.n_builds == 2
+    assert relres(K2, f, u) <= RTOL
+
+
+def test_warm_start_reduces_iterations(cracked):
+    K1, K2, f, c = cracked
+    s = AMGSolver(K1, coords=c)
+    s.update(K1)
+    u1, _ = s.solve(f)
+    s.update(K2)
+    _, cold = s.solve(f)
+    u2, warm = s.solve(f, x0=u1)
+    assert warm.iterations < cold.iterations
+    assert relres(K2, f, u2) <= RTOL
+    # and a looser per-call tolerance costs fewer iterations still
+    _, loose = s.solve(f, x0=u1, rtol=1e-5)
+    assert loose.iterations < warm.iterations and loose.residual <= 1e-5
+
+
+# ---------------------------------------------------------------------------- hard cases
+def cut_band(m):
+    """alpha = 1 on a 3-node band at x = 0 that cuts the plate in two."""
+    c = grid_coords(m)
+    h = 1.0 / (m - 1)
+    return (np.abs(c[:, 0]) <= 1.01 * h).astype(float)
+
+
+HARD = [
+    pytest.param(dict(lam=2.0, k_res=1e-6, cut=False), id="lam2"),
+    pytest.param(dict(lam=1e3, k_res=1e-6, cut=False), id="lam1e3"),
+    pytest.param(dict(lam=2.0, k_res=1e-10, cut=True), id="lam2-cut-kres1e-10"),
+    pytest.param(dict(lam=31.6, k_res=1e-10, cut=True), id="lam32-cut-kres1e-10"),
+    pytest.param(dict(lam=1e3, k_res=1e-10, cut=True), id="lam1e3-cut-kres1e-10"),
+]
+
+
+@pytest.mark.parametrize("case", HARD)
+@pytest.mark.parametrize("kind,opts", ALL_KINDS, ids=KIND_IDS)
+def test_hard_cases_converge_or_raise_never_nan(case, kind, opts):
+    winkler = 4.0 * case["lam"] ** 4
+    alpha = cut_band(M) if case["cut"] else crack_bands(M)
+    K = plate_test_matrix(alpha, winkler=winkler, k_res=case["k_res"])
+    c = grid_coords(M)
+    # a load that bends each half differently, so the cut matters
+    f = winkler * (-(c[:, 0] ** 2) / 2 + 0.1 * c[:, 1] * (c[:, 0] > 0)) / (M - 1) ** 2
+    s = make_solver(kind, K, coords=c, **opts)
+    s.update(K)
+    try:
+        u, info = s.solve(f, rtol=RTOL)
+    except LinearSolverError as err:
+        assert isinstance(err, RuntimeError)
+        assert "residual" in str(err) and "iterations" in str(err)
+        assert err.iterations >= 0
+        return
+    assert np.all(np.isfinite(u))
+    assert info.residual <= RTOL and relres(K, f, u) <= RTOL * 1.01
+
+
+# ---------------------------------------------------------------------------- errors
+def test_nonconvergence_raises_with_residual_and_iterations(cracked):
+    K1, _, f, c = cracked
+    s = AMGSolver(K1, coords=c, maxiter=2)
+    s.update(K1)
+    with pytest.raises(LinearSolverError, match=r"residual .* after \d+ iterations") as exc:
+        s.solve(f, rtol=1e-12)
+    assert exc.value.iterations >= 2 and exc.value.residual > 1e-12
+    assert isinstance(exc.value, RuntimeError)
+
+
+@pytest.mark.parametrize("kind,opts", ALL_KINDS, ids=KIND_IDS)
+def test_indefinite_matrix_raises_not_nan(cracked, kind, opts):
+    K1, _, f, c = cracked
+    K = K1.copy()
+    K.data[K.indices == np.repeat(np.arange(K.shape[0]), np.diff(K.indptr))] *= -1.0
+    if kind == "amg":
+        opts = {**opts, "maxiter": 50}  # fail fast
+    s = make_solver(kind, K1, coords=c, **opts)
+    s.update(K)
+    try:
+        u, info = s.solve(f)
+    except LinearSolverError as err:
+        assert "iterations" in str(err)
+        return
+    # a direct LU of a symmetric indefinite matrix may still solve it: then it must be right
+    assert np.all(np.isfinite(u)) and relres(K, f, u) <= RTOL
+
+
+def test_bad_inputs_are_rejected(cracked):
+    K1, _, f, c = cracked
+    with pytest.raises(ValueError, match="kind"):
+        make_solver("cholesky", K1)
+    with pytest.raises(ValueError, match="coords"):
+        make_solver("amg", K1)
+    with pytest.raises(ValueError, match="unknown"):
+        make_solver("direct", K1, smoother="gs")
+    s = make_solver("direct", K1)
+    with pytest.raises(ValueError, match="pattern"):
+        s.update(K1 + sp.eye(K1.shape[0], k=M + 7, format="csr"))
+    bad = K1.copy()
+    bad.data[5] = np.nan
+    with pytest.raises(ValueError, match="non-finite"):
+        s.update(bad)
+    s.update(K1)
+    with pytest.raises(ValueError, match="shape"):
+        s.solve(f[:-1])
+
+
+def test_zero_rhs_gives_zero(cracked):
+    K1, _, f, c = cracked
+    for kind in ("direct", "amg"):
+        s = make_solver(kind, K1, coords=c)
+        u, info = s(K1, np.zeros_like(f))
+        assert not np.any(u) and info.residual == 0.0
+
+
+def test_auto_picks_direct_for_small_systems(cracked):
+    K1, _, _, c = cracked
+    assert isinstance(make_solver("auto", K1, coords=c), DirectSolver)

@@ -1,0 +1,125 @@
+"""A plate run against the exact 1D evolution with the same parameters (Figs. 2.5-2.7).
+
+The exact solution is that of a film of length ``x1 - x0`` under pure bending; a 2D strip is
+compared per unit width (its energies divided by ``y1 - y0``), its cracks read along
+``y = 0``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from onedim.evolution import Evolution  # noqa: E402
+from thinfilm.cracks import crack_positions  # noqa: E402
+from thinfilm.io import read_plate  # noqa: E402
+
+
+def exact_counterpart(data, cells=2000):
+    """The exact evolution for a plate results file's parameters, sampled at its loads.
+
+    Returns
+    -------
+    dict
+        ``t`` (the run's loads), ``total`` (exact total energy per unit width),
+        ``events`` (list of onedim Event), ``offset`` (the film's centre: exact positions
+        are shifted by it).
+    """
+    p, grid = data["parameters"], data["grid"]
+    x0, x1 = float(grid["x"][0]), float(grid["x"][-1])
+    t = data["steps"]["t"]
+    evolution = Evolution(x1 - x0, p["lam"], p["toughness"], cells, float(t[-1]))
+    total = []
+    for ti in t:
+        evolution.advance_to(float(ti))
+        total.append(evolution.energies(float(ti))[2])
+    return {"t": t, "total": np.array(total), "events": evolution.events, "offset": 0.5 * (x0 + x1)}
+
+
+def regularized_cracks(data):
+    """Crack positions along ``y = 0`` at each step of a plate run (list of arrays)."""
+    grid = data["grid"]
+    x = grid["x"]
+    out = []
+    for alpha in data["alpha"]:
+        if grid["dim"] == 2:
+            line = alpha.reshape(len(grid["y"]), len(x))[int(np.argmin(np.abs(grid["y"])))]
+        else:
+            line = alpha
+        out.append(crack_positions(x, line))
+    return out
+
+
+def compare(results, outdir=None):
+    """Draw ``compare.png`` and write ``compare.json`` for a plate ``results.h5``.
+
+    Parameters
+    ----------
+    results : str or Path
+    outdir : str or Path, optional
+        Defaults to the results' directory.
+
+    Returns
+    -------
+    figure, report : Path
+        The figure and the JSON report: for each exact event the first step of the run
+        with as many cracks, and the relative energy error at every step.
+    """
+    results = Path(results)
+    outdir = Path(outdir) if outdir is not None else results.parent
+    data = read_plate(results)
+    grid = data["grid"]
+    width = float(grid["y"][-1] - grid["y"][0]) if grid["dim"] == 2 else 1.0
+    exact = exact_counterpart(data)
+    t = exact["t"]
+    total = data["steps"]["total"] / width
+    cracks = regularized_cracks(data)
+
+    fig, (ax_e, ax_c) = plt.subplots(1, 2, figsize=(11.0, 4.2), layout="constrained")
+    ax_e.plot(t, exact["total"], "--", color="tab:blue", lw=2, label="exact 1D (global minimizer)")
+    ax_e.plot(t, total, "-", color="black", lw=1.5, label="regularized" + (" (per unit width)" if width != 1 else ""))
+    ax_e.set_xlabel("load t")
+    ax_e.set_ylabel("total energy")
+    ax_e.legend()
+    t_max = t[-1]
+    for event in exact["events"]:
+        for c in event.new_cracks:
+            ax_c.plot([event.t, t_max], [c + exact["offset"]] * 2, "-", color="tab:blue", lw=3, alpha=0.4)
+    for ti, c in zip(t, cracks):
+        ax_c.plot(np.full(c.shape, ti), c, "|", color="black", ms=5)
+    ax_c.set_xlim(0, t_max)
+    ax_c.set_ylim(grid["x"][0], grid["x"][-1])
+    ax_c.set_xlabel("load t")
+    ax_c.set_ylabel("crack position x")
+    ax_c.set_title("cracks: exact (blue bands), regularized (black)")
+    figure = outdir / "compare.png"
+    fig.savefig(figure, dpi=130)
+    plt.close(fig)
+
+    counts = np.array([len(c) for c in cracks])
+    events = []
+    for event in exact["events"]:
+        hit = np.flatnonzero(counts >= len(event.cracks))
+        k = int(hit[0]) if hit.size else None
+        events.append({
+            "exact_t": event.t, "exact_cracks": [c + exact["offset"] for c in event.cracks],
+            "regularized_t": float(t[k]) if k is not None else None,
+            "regularized_cracks": cracks[k].tolist() if k is not None else None,
+        })
+    nonzero = exact["total"] > 0
+    report = {
+        "events": events,
+        "energy_relative_error": {
+            "t": t[nonzero].tolist(),
+            "error": ((total[nonzero] - exact["total"][nonzero]) / exact["total"][nonzero]).tolist(),
+        },
+    }
+    path = outdir / "compare.json"
+    path.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
+    return figure, path

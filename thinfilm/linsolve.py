@@ -1,0 +1,907 @@
+"""Linear solvers for the u-problem ``K(alpha) u = f``, created once per sparsity pattern.
+
+Every alternate-minimization iteration solves the plate + Winkler system with a matrix whose
+*pattern* never changes and whose *values* change a little (the damage field moves). The
+solvers here are built around that: the expensive, value-independent work (ordering and
+symbolic analysis; the near-nullspace and the AMG hierarchy) is done once and kept, and each
+solve only redoes what the new values require.
+
+Protocol (what the evolution engine relies on)::
+
+    solver = make_solver(kind, pattern, coords=coords, **options)   # once per pattern
+    solver.update(K)                        # new values, same pattern (CSR)
+    u, info = solver.solve(f, x0=u_prev, rtol=1e-8)
+    u, info = solver(K, f, x0=u_prev)       # the same as update + solve: a plain function
+
+Kinds
+-----
+``"direct"``
+    Sparse Cholesky/LU. Backend ``"pardiso"`` (Intel MKL PARDISO through the ``pypardiso``
+    wheel, which pulls the ``mkl`` wheel) when importable: METIS ordering and symbolic
+    factorization once, numeric refactorization on each update. Otherwise ``"superlu"``
+    (scipy's ``splu``, no extra dependency): the fill-reducing column order of the first
+    factorization is kept and reused. A residual check follows every solve, with a few steps of
+    factorization-preconditioned CG if round-off left it above ``rtol``.
+``"amg"``
+    Conjugate gradients preconditioned by one symmetric V-cycle of pyamg smoothed aggregation
+    with the plate's near-nullspace ``B = [1, x, y]``. The hierarchy is kept across updates;
+    only the finest level takes the new values (so smoothing and fine residuals are exact and
+    the coarse levels are stale). The hierarchy is rebuilt when the convergence rate (CG
+    iterations per decade of residual reduction) degrades past ``rebuild_factor`` times the
+    rate measured right after the last rebuild, and at once if a stale hierarchy fails to
+    converge.
+``"auto"``
+    ``"direct"`` unless the system is larger than the measured crossover (see
+    :data:`AUTO_AMG_MIN_UNKNOWNS` and ``benchmarks/results/usolve.md``).
+
+Every solve returns an :class:`SolveInfo`; a solve that does not reach its tolerance, or that
+produces a non-finite value, raises :class:`LinearSolverError`.
+
+:func:`plate_test_matrix` and :func:`crack_bands` build a plate-like test system for tests and
+benchmarks only; the model's operator lives in :mod:`thinfilm.operators`.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+__all__ = [
+    "LinearSolverError",
+    "SolveInfo",
+    "DirectSolver",
+    "AMGSolver",
+    "make_solver",
+    "pardiso_available",
+    "plate_test_matrix",
+    "crack_bands",
+    "AUTO_AMG_MIN_UNKNOWNS",
+    "KINDS",
+]
+
+KINDS = ("auto", "direct", "amg")
+
+#: ``kind="auto"`` picks ``"amg"`` above this many unknowns. Measured on 2 cores (see
+#: ``benchmarks/results/usolve.md``): PARDISO's refactorization beat the reused AMG hierarchy
+#: at every size up to 1500^2 = 2.25e6 unknowns, so with PARDISO "auto" is "direct" there. Beyond
+#: the largest measured size the O(N^1.5) factorization time and its memory favour AMG.
+AUTO_AMG_MIN_UNKNOWNS = 1501 * 1501
+#: The same crossover when only scipy's SuperLU is available (no ``pypardiso``).
+AUTO_AMG_MIN_UNKNOWNS_SUPERLU = 501 * 501
+
+DEFAULT_RTOL = 1e-8
+
+
+class LinearSolverError(RuntimeError):
+    """A linear solve failed: no convergence, a breakdown, or a non-finite value.
+
+    Attributes
+    ----------
+    residual : float
+        Final relative residual ``||f - K u|| / ||f||`` (NaN if it could not be computed).
+    iterations : int
+        Iterations (CG steps or refinement steps) done before giving up.
+    kind : str
+        The solver kind that failed.
+    """
+
+    def __init__(self, message, *, residual=float("nan"), iterations=0, kind=""):
+        super().__init__(
+            f"{kind} linear solve failed: {message} "
+            f"(relative residual {residual:.3e} after {iterations} iterations)"
+        )
+        self.residual = float(residual)
+        self.iterations = int(iterations)
+        self.kind = kind
+
+
+@dataclass
+class SolveInfo:
+    """What one ``solve`` did.
+
+    Attributes
+    ----------
+    kind : str
+        ``"direct:pardiso"``, ``"direct:superlu"`` or ``"amg"``.
+    iterations : int
+        CG iterations (for ``direct``: refinement steps after the triangular solves, usually 0).
+    residual : float
+        Final true relative residual ``||f - K u||_2 / ||f||_2``.
+    rtol : float
+        The tolerance that was asked for.
+    time_setup : float
+        Seconds spent in this call on (re)factorization or hierarchy (re)building.
+    time_solve : float
+        Seconds spent in the triangular solves or the CG iterations.
+    rebuilt : bool
+        True when this call refactorized (direct) or rebuilt the hierarchy (amg).
+    """
+
+    kind: str
+    iterations: int
+    residual: float
+    rtol: float
+    time_setup: float
+    time_solve: float
+    rebuilt: bool
+
+    @property
+    def time(self) -> float:
+        """Total seconds of the call."""
+        return self.time_setup + self.time_solve
+
+
+# --------------------------------------------------------------------------------------------
+# shared pieces
+# --------------------------------------------------------------------------------------------
+
+
+def _as_csr(K, name="K"):
+    if not sp.issparse(K):
+        raise TypeError(f"{name} must be a scipy sparse matrix, got {type(K).__name__}")
+    K = K.tocsr()
+    if K.shape[0] != K.shape[1]:
+        raise ValueError(f"{name} must be square, got shape {K.shape}")
+    if not K.has_sorted_indices:
+        K = K.sorted_indices()
+    if K.dtype != np.float64:
+        K = K.astype(np.float64)
+    return K
+
+
+class _Pattern:
+    """The fixed sparsity pattern (CSR, sorted indices) a solver was made for."""
+
+    def __init__(self, A):
+        A = _as_csr(A, "pattern")
+        self.n = A.shape[0]
+        self.indptr = A.indptr.copy()
+        self.indices = A.indices.copy()
+
+    def check(self, K):
+        """Return K as CSR float64 if it has this pattern, else raise ValueError."""
+        K = _as_csr(K)
+        if K.shape[0] != self.n:
+            raise ValueError(f"K has shape {K.shape}, the solver was made for n = {self.n}")
+        same = (K.indices is self.indices) or (
+            K.nnz == self.indices.size
+            and np.array_equal(K.indptr, self.indptr)
+            and np.array_equal(K.indices, self.indices)
+        )
+        if not same:
+            raise ValueError(
+                f"K has a different sparsity pattern (nnz {K.nnz}, expected "
+                f"{self.indices.size}); make a new solver for a new pattern"
+            )
+        if not np.all(np.isfinite(K.data)):
+            bad = int(np.count_nonzero(~np.isfinite(K.data)))
+            raise ValueError(f"K has {bad} non-finite values")
+        return K
+
+    def index_matrix(self):
+        """CSR matrix with this pattern whose values are 1 + the position in ``data``.
+
+        Used to turn a permutation or triangle extraction of the pattern into a gather index
+        into ``K.data`` (computed once; values start at 1 so no entry is an explicit zero).
+        """
+        data = np.arange(1, self.indices.size + 1, dtype=np.float64)
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+
+
+def _relres(K, f, u, normf):
+    return float(np.linalg.norm(f - K @ u) / normf)
+
+
+def _check_rhs(f, n):
+    f = np.asarray(f, dtype=np.float64)
+    if f.shape != (n,):
+        raise ValueError(f"f must have shape ({n},), got {f.shape}")
+    if not np.all(np.isfinite(f)):
+        raise ValueError("f has non-finite entries")
+    return f
+
+
+def _pcg(K, f, apply_M, x0, rtol, maxiter, kind):
+    """Preconditioned CG on ``K u = f`` to ``||f - K u|| <= rtol ||f||``.
+
+    Returns ``(u, iterations, relres, relres0)`` with ``relres0`` the relative residual of the
+    start. Raises :class:`LinearSolverError` on a non-finite value or a CG breakdown (``p.Kp``
+    or ``r.z`` not positive: K or the preconditioner is not SPD numerically). Hitting
+    ``maxiter`` is *not* raised here (the caller may rebuild and retry); it is reported through
+    ``relres > rtol``.
+    """
+    normf = np.linalg.norm(f)
+    x = np.zeros_like(f) if x0 is None else np.array(x0, dtype=np.float64, copy=True)
+    r = f - K @ x if x0 is not None else f.copy()
+    rnorm = np.linalg.norm(r)
+    relres0 = rnorm / normf
+    target = rtol * normf
+    it = 0
+    # The recursively updated residual drifts from the true one; when it says "converged" we
+    # check the true residual and restart from there (at most a few times) if it disagrees.
+    for _restart in range(3):
+        if rnorm <= target:
+            break
+        z = apply_M(r)
+        p = z.copy()
+        rz = float(r @ z)
+        while it < maxiter:
+            if not (rz > 0.0 and math.isfinite(rz)):
+                raise LinearSolverError(
+                    f"CG breakdown (r.z = {rz:.3e}: preconditioner not SPD or non-finite)",
+                    residual=rnorm / normf, iterations=it, kind=kind)
+            q = K @ p
+            pq = float(p @ q)
+            if not (pq > 0.0 and math.isfinite(pq)):
+                raise LinearSolverError(
+                    f"CG breakdown (p.Kp = {pq:.3e}: K not SPD or non-finite)",
+                    residual=rnorm / normf, iterations=it, kind=kind)
+            a = rz / pq
+            x += a * p
+            r -= a * q
+            it += 1
+            rnorm = np.linalg.norm(r)
+            if not math.isfinite(rnorm):
+                raise LinearSolverError("non-finite residual in CG", residual=rnorm / normf,
+                                        iterations=it, kind=kind)
+            if rnorm <= target:
+                break
+            z = apply_M(r)
+            rz_new = float(r @ z)
+            p *= rz_new / rz
+            p += z
+            rz = rz_new
+        r = f - K @ x
+        rnorm = np.linalg.norm(r)
+        if it >= maxiter:
+            break
+    if not np.all(np.isfinite(x)):
+        raise LinearSolverError("non-finite solution", residual=float("nan"), iterations=it,
+                                kind=kind)
+    return x, it, float(rnorm / normf), float(relres0)
+
+
+# --------------------------------------------------------------------------------------------
+# direct
+# --------------------------------------------------------------------------------------------
+
+
+@functools.lru_cache(maxsize=1)
+def pardiso_available() -> bool:
+    """True if ``pypardiso`` (and its MKL runtime) can be imported and loaded (cached)."""
+    try:
+        import pypardiso  # noqa: F401
+
+        pypardiso.PyPardisoSolver(mtype=2)
+    except Exception:  # ImportError, or the MKL runtime library not found
+        return False
+    return True
+
+
+class _PardisoBackend:
+    """MKL PARDISO for real SPD matrices (``mtype = 2``), upper triangle in CSR.
+
+    pypardiso's public ``factorize`` redoes the ordering and symbolic analysis (phase 12) on
+    every call: 3.7 s of the 10.6 s at 1000^2 and 12 s of the 47 s at 1500^2. Calling its
+    ``_call_pardiso`` with phase 11 once and phase 22 per update keeps the analysis.
+    """
+
+    name = "pardiso"
+
+    def __init__(self, pattern: _Pattern):
+        import pypardiso
+
+        self._err = pypardiso.pardiso_wrapper.PyPardisoError
+        self.ps = pypardiso.PyPardisoSolver(mtype=2)
+        self.ps.set_iparm(12, 0)  # CSR input, no transposed solve
+        upper = sp.triu(pattern.index_matrix(), format="csr")
+        upper.sort_indices()
+        self.gather = upper.data.astype(np.int64) - 1
+        self.U = sp.csr_matrix(
+            (np.ones(self.gather.size), upper.indices.astype(np.int32),
+             upper.indptr.astype(np.int32)), shape=upper.shape)
+        # Symbolic analysis needs only the structure (SPD: no value-based matching).
+        self._phase(11, np.zeros(pattern.n))
+
+    def _phase(self, phase, b):
+        self.ps.set_phase(phase)
+        try:
+            return self.ps._call_pardiso(self.U, b)
+        except self._err as exc:
+            raise LinearSolverError(f"PARDISO phase {phase} failed: {exc}",
+                                    kind="direct:pardiso") from exc
+
+    def factor(self, K):
+        self.U.data[:] = K.data[self.gather]
+        self._phase(22, np.zeros(self.U.shape[0]))
+
+    def solve(self, b):
+        return self._phase(33, np.ascontiguousarray(b))
+
+    def close(self):
+        try:
+            self.ps.free_memory(everything=True)
+        except Exception:
+            pass
+
+
+class _SuperLUBackend:
+    """scipy's SuperLU with a kept fill-reducing order (LU of an SPD matrix).
+
+    The first factorization orders with ``MMD_AT_PLUS_A`` (minimum degree on the symmetric
+    pattern, with half the fill of ``COLAMD`` on this operator); later ones reuse its column
+    permutation on the pre-permuted matrix (``NATURAL``), so no ordering is recomputed.
+    ``SymmetricMode`` with a zero pivot threshold keeps diagonal pivots (SPD: stable).
+    """
+
+    name = "superlu"
+
+    def __init__(self, pattern: _Pattern):
+        self.pattern = pattern
+        self.perm = None
+        self.gather = None
+        self.lu = None
+        self._permuted = False  # True once lu factors the pre-permuted matrix
+
+    def factor(self, K):
+        opts = dict(SymmetricMode=True)
+        try:
+            if self.perm is None:
+                self.lu = spla.splu(K.tocsc(), permc_spec="MMD_AT_PLUS_A",
+                                    diag_pivot_thresh=0.0, options=opts)
+                # perm_c[i] is the position of unknown i in the factor's order; the matrix to
+                # hand to NATURAL is K[q][:, q] with q its inverse.
+                self.perm = np.argsort(self.lu.perm_c)
+                Ip = self.pattern.index_matrix()[self.perm][:, self.perm].tocsc()
+                Ip.sort_indices()
+                self.Kp = Ip
+                self.gather = Ip.data.astype(np.int64) - 1
+                self._permuted = False
+            else:
+                self.Kp.data[:] = K.data[self.gather]
+                self.lu = spla.splu(self.Kp, permc_spec="NATURAL", diag_pivot_thresh=0.0,
+                                    options=opts)
+                self._permuted = True
+        except RuntimeError as exc:  # "Factor is exactly singular"
+            raise LinearSolverError(f"SuperLU factorization failed: {exc}",
+                                    kind="direct:superlu") from exc
+
+    def solve(self, b):
+        if not self._permuted:  # the first factorization: splu permuted by itself
+            return self.lu.solve(b)
+        x = np.empty_like(b)
+        x[self.perm] = self.lu.solve(b[self.perm])
+        return x
+
+    def close(self):
+        self.lu = None
+
+
+class DirectSolver:
+    """Sparse direct solver with the analysis kept across value updates.
+
+    Parameters
+    ----------
+    pattern : scipy.sparse matrix, shape (n, n)
+        Any matrix with the fixed sparsity pattern (values ignored). Symmetric positive
+        definite matrices with this pattern are passed to :meth:`update`.
+    backend : {"auto", "pardiso", "superlu"}
+        ``"auto"``: PARDISO if ``pypardiso`` imports, else SuperLU.
+    rtol : float
+        Default relative residual tolerance checked after each solve.
+    max_refine : int
+        Factorization-preconditioned CG steps allowed when round-off leaves the residual above
+        ``rtol`` (ill-conditioned K, e.g. ``k_res = 1e-10`` on a crack that cuts the plate).
+    """
+
+    def __init__(self, pattern, *, backend="auto", rtol=DEFAULT_RTOL, max_refine=20):
+        self.pattern = _Pattern(pattern)
+        self.n = self.pattern.n
+        if backend == "auto":
+            backend = "pardiso" if pardiso_available() else "superlu"
+        if backend == "pardiso":
+            self._backend = _PardisoBackend(self.pattern)
+        elif backend == "superlu":
+            self._backend = _SuperLUBackend(self.pattern)
+        else:
+            raise ValueError(f"backend = {backend!r}; allowed: 'auto', 'pardiso', 'superlu'")
+        self.kind = f"direct:{self._backend.name}"
+        self.rtol = float(rtol)
+        self.max_refine = int(max_refine)
+        self.K = None
+        self._factored = False
+
+    def update(self, K):
+        """Take new values ``K`` (same pattern); the refactorization happens at the next solve."""
+        self.K = self.pattern.check(K)
+        self._factored = False
+
+    def solve(self, f, x0=None, rtol=None):
+        """Solve ``K u = f``.
+
+        Parameters
+        ----------
+        f : ndarray, shape (n,)
+        x0 : ndarray, shape (n,), optional
+            Ignored by the direct solve (accepted so the kinds are interchangeable).
+        rtol : float, optional
+            Relative residual to guarantee; default the solver's ``rtol``.
+
+        Returns
+        -------
+        u : ndarray, shape (n,)
+        info : SolveInfo
+        """
+        if self.K is None:
+            raise RuntimeError("call update(K) before solve")
+        rtol = self.rtol if rtol is None else float(rtol)
+        f = _check_rhs(f, self.n)
+        t0 = time.perf_counter()
+        rebuilt = not self._factored
+        if rebuilt:
+            self._backend.factor(self.K)
+            self._factored = True
+        t1 = time.perf_counter()
+        normf = np.linalg.norm(f)
+        if normf == 0.0:
+            return np.zeros(self.n), SolveInfo(self.kind, 0, 0.0, rtol, t1 - t0, 0.0, rebuilt)
+        u = self._backend.solve(f)
+        its = 0
+        res = _relres(self.K, f, u, normf) if np.all(np.isfinite(u)) else float("nan")
+        if not res <= rtol:  # also catches NaN
+            # Round-off on an ill-conditioned K: CG preconditioned by the exact factorization
+            # converges in a few steps (iterative refinement that cannot diverge).
+            start = u if np.all(np.isfinite(u)) else None
+            u, its, res, _ = _pcg(self.K, f, self._backend.solve, start, rtol,
+                                  self.max_refine, self.kind)
+            if not res <= rtol:
+                raise LinearSolverError(f"did not reach rtol = {rtol:.1e}", residual=res,
+                                        iterations=its, kind=self.kind)
+        t2 = time.perf_counter()
+        return u, SolveInfo(self.kind, its, res, rtol, t1 - t0, t2 - t1, rebuilt)
+
+    def __call__(self, K, f, x0=None, rtol=None):
+        """``update(K)`` (skipped if K is the matrix already held) then ``solve``."""
+        if K is not self.K:
+            self.update(K)
+        return self.solve(f, x0=x0, rtol=rtol)
+
+    def close(self):
+        """Free the factorization (PARDISO keeps it in MKL-owned memory)."""
+        self._backend.close()
+        self._factored = False
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+
+# --------------------------------------------------------------------------------------------
+# AMG
+# --------------------------------------------------------------------------------------------
+
+#: Smoothed-aggregation settings chosen by measurement (``benchmarks/bench_usolve.py``; see
+#: the module docstring of that file). ``presmoother``/``postsmoother`` must not cache anything
+#: derived from the level matrix, since the finest level's matrix is replaced on update:
+#: plain (point) symmetric Gauss-Seidel qualifies, ``block_gauss_seidel`` (caches inverted
+#: diagonal blocks) and ``jacobi`` (caches a spectral radius) do not.
+AMG_DEFAULTS = dict(
+    strength=("symmetric", {"theta": 0.08}),
+    smooth=("energy", {"krylov": "cg", "maxiter": 3, "degree": 2, "weighting": "local"}),
+    presmoother=("gauss_seidel", {"sweep": "symmetric", "iterations": 1}),
+    postsmoother=("gauss_seidel", {"sweep": "symmetric", "iterations": 1}),
+    max_coarse=500,
+    max_levels=10,
+)
+
+
+def near_nullspace(coords):
+    """Rigid modes of the free plate, ``B = [1, x, y]``, centred and scaled.
+
+    Parameters
+    ----------
+    coords : ndarray, shape (n, 2)
+        Node coordinates (any length unit).
+
+    Returns
+    -------
+    B : ndarray, shape (n, 3)
+        Columns 1, (x - mean x)/L, (y - mean y)/L with L the larger extent (scaling keeps the
+        columns of comparable size for the aggregation's local QR).
+    """
+    coords = np.asarray(coords, dtype=np.float64)
+    if coords.ndim != 2 or coords.shape[1] != 2:
+        raise ValueError(f"coords must have shape (n, 2), got {coords.shape}")
+    c = coords - coords.mean(axis=0)
+    L = float(np.ptp(coords, axis=0).max()) or 1.0
+    return np.column_stack([np.ones(len(c)), c[:, 0] / L, c[:, 1] / L])
+
+
+class AMGSolver:
+    """CG preconditioned by a kept smoothed-aggregation V-cycle.
+
+    Parameters
+    ----------
+    pattern : scipy.sparse matrix, shape (n, n)
+        Any matrix with the fixed sparsity pattern.
+    coords : ndarray, shape (n, 2)
+        Node coordinates, for the near-nullspace ``[1, x, y]`` (required: with the constant
+        alone SA fails on the free plate).
+    rtol : float
+        Default relative residual tolerance ``||f - K u|| <= rtol ||f||``.
+    maxiter : int
+        CG iterations before giving up (after one rebuild-and-retry if the hierarchy was stale).
+    rebuild_factor : float
+        Rebuild the hierarchy (before the next solve) when the iterations per decade of
+        residual reduction exceed ``rebuild_factor`` times the value measured in the first
+        solve after the last rebuild. Per decade rather than raw counts, so warm starts and
+        per-call tolerances do not trigger or mask a rebuild.
+    min_rebuild_iterations : int
+        Never rebuild because of a solve that took fewer CG iterations than this (cheap solves
+        are not worth a setup, whatever their rate).
+    **amg_options
+        Override entries of :data:`AMG_DEFAULTS` (passed to
+        ``pyamg.smoothed_aggregation_solver``).
+    """
+
+    kind = "amg"
+
+    def __init__(self, pattern, *, coords=None, rtol=DEFAULT_RTOL, maxiter=500,
+                 rebuild_factor=2.0, min_rebuild_iterations=10, **amg_options):
+        import pyamg  # noqa: F401  (fail early if missing)
+
+        self.pattern = _Pattern(pattern)
+        self.n = self.pattern.n
+        if coords is None:
+            raise ValueError("coords (shape (n, 2)) is required by kind='amg' for the "
+                             "near-nullspace [1, x, y]")
+        self.B = near_nullspace(coords)
+        if self.B.shape[0] != self.n:
+            raise ValueError(f"coords has {self.B.shape[0]} rows, the pattern n = {self.n}")
+        unknown = set(amg_options) - set(AMG_DEFAULTS) - {"aggregate", "improve_candidates"}
+        if unknown:
+            raise ValueError(f"unknown AMG options {sorted(unknown)}; allowed: "
+                             f"{sorted(AMG_DEFAULTS) + ['aggregate', 'improve_candidates']}")
+        self.amg_options = {**AMG_DEFAULTS, **amg_options}
+        self.rtol = float(rtol)
+        self.maxiter = int(maxiter)
+        self.rebuild_factor = float(rebuild_factor)
+        self.min_rebuild_iterations = int(min_rebuild_iterations)
+        self.K = None
+        self.ml = None
+        self._baseline = None  # iterations per decade right after the last rebuild
+        self._stale = True     # True: rebuild before the next solve
+        self._fresh = False    # True: no solve since the last rebuild
+        self.n_builds = 0
+        self.last_setup_time = 0.0
+
+    # -- hierarchy -----------------------------------------------------------------------
+    def _build(self):
+        import pyamg
+
+        t0 = time.perf_counter()
+        self.ml = pyamg.smoothed_aggregation_solver(self.K, B=self.B, **self.amg_options)
+        self._levels = self.ml.levels
+        self._coarse = self._coarse_inverse(self._levels[-1].A)
+        self._stale = False
+        self._fresh = True
+        self._baseline = None
+        self.n_builds += 1
+        self.last_setup_time = time.perf_counter() - t0
+
+    @staticmethod
+    def _coarse_inverse(A):
+        """Return a function applying the coarsest-level inverse.
+
+        The coarsest matrix (a few hundred to a thousand unknowns) can be singular: an
+        aggregate whose nodes are collinear gives P a zero column and A_c a zero row. Those
+        rows are dropped and the rest factored by Cholesky, with a relative diagonal shift of
+        1e-12 if round-off (tiny k_res) makes it fail; a matrix that is still not positive
+        definite gets an LU (CG will then report the breakdown). No eigendecomposition: a
+        dense ``eigh`` of 1000 unknowns took 4-8 s with threaded OpenBLAS on the 2-core machine.
+        """
+        import scipy.linalg as sla
+
+        Ad = A.toarray()
+        d = np.diag(Ad)
+        keep = np.flatnonzero(d > 1e-14 * max(float(d.max()), 1e-300))
+        Ak = Ad[np.ix_(keep, keep)]
+        factor, apply = None, None
+        for shift in (0.0, 1e-12):
+            try:
+                factor = sla.cho_factor(Ak + shift * float(d.max()) * np.eye(len(keep)),
+                                        check_finite=False)
+                apply = sla.cho_solve
+                break
+            except np.linalg.LinAlgError:
+                continue
+        if factor is None:
+            factor, apply = sla.lu_factor(Ak, check_finite=False), sla.lu_solve
+
+        def solve(b):
+            x = np.zeros_like(b)
+            x[keep] = apply(factor, b[keep], check_finite=False)
+            return x
+
+        return solve
+
+    def operator_complexity(self):
+        """Sum of nnz over levels divided by the fine nnz (None before the first build)."""
+        return None if self.ml is None else self.ml.operator_complexity()
+
+    def _vcycle(self, b, lvl=0):
+        """One symmetric V-cycle from a zero guess (an SPD preconditioner for CG).
+
+        Written out instead of ``ml.aspreconditioner`` because pyamg's ``solve`` wrapper
+        computes residual norms on every call (extra fine-level matvecs per CG step).
+        """
+        levels = self._levels
+        if lvl == len(levels) - 1:
+            return self._coarse(b)
+        L = levels[lvl]
+        x = np.zeros_like(b)
+        L.presmoother(L.A, x, b)
+        r = b - L.A @ x
+        x += L.P @ self._vcycle(L.R @ r, lvl + 1)
+        L.postsmoother(L.A, x, b)
+        return x
+
+    # -- protocol --------------------------------------------------------------------------
+    def update(self, K):
+        """Take new values ``K`` (same pattern).
+
+        The hierarchy is kept: only its finest matrix is replaced, so the smoother and the
+        fine-level residual use the new values while the coarse operators stay as built.
+        """
+        self.K = self.pattern.check(K)
+        if self.ml is not None:
+            self._levels[0].A = self.K
+
+    def solve(self, f, x0=None, rtol=None):
+        """Solve ``K u = f`` by AMG-preconditioned CG.
+
+        Parameters
+        ----------
+        f : ndarray, shape (n,)
+        x0 : ndarray, shape (n,), optional
+            Warm start (e.g. the previous u).
+        rtol : float, optional
+            Relative residual tolerance for this call (loosen it in early alternate-
+            minimization iterations); default the solver's ``rtol``.
+
+        Returns
+        -------
+        u : ndarray, shape (n,)
+        info : SolveInfo
+
+        Raises
+        ------
+        LinearSolverError
+            If CG does not reach ``rtol`` in ``maxiter`` iterations with a freshly built
+            hierarchy, breaks down, or meets a non-finite value.
+        """
+        if self.K is None:
+            raise RuntimeError("call update(K) before solve")
+        rtol = self.rtol if rtol is None else float(rtol)
+        f = _check_rhs(f, self.n)
+        if x0 is not None:
+            x0 = np.asarray(x0, dtype=np.float64)
+            if x0.shape != (self.n,) or not np.all(np.isfinite(x0)):
+                x0 = None  # a bad warm start is not worth failing a solve for
+        if np.linalg.norm(f) == 0.0:
+            return np.zeros(self.n), SolveInfo(self.kind, 0, 0.0, rtol, 0.0, 0.0, False)
+        t_setup = 0.0
+        rebuilt = False
+        if self.ml is None or self._stale:
+            self._build()
+            t_setup += self.last_setup_time
+            rebuilt = True
+        t0 = time.perf_counter()
+        u, its, res, res0 = _pcg(self.K, f, self._vcycle, x0, rtol, self.maxiter, self.kind)
+        if not res <= rtol and not self._fresh:
+            # A stale hierarchy gave up: rebuild now and try once more from where CG stopped.
+            self._build()
+            t_setup += self.last_setup_time
+            rebuilt = True
+            u, its2, res, res0 = _pcg(self.K, f, self._vcycle, u, rtol, self.maxiter, self.kind)
+            its += its2
+        t1 = time.perf_counter() - t0
+        if not res <= rtol:
+            self._stale = True
+            raise LinearSolverError(f"CG did not reach rtol = {rtol:.1e}", residual=res,
+                                    iterations=its, kind=self.kind)
+        self._track_rate(its, res0, res)
+        return u, SolveInfo(self.kind, its, res, rtol, t_setup, t1, rebuilt)
+
+    def _track_rate(self, its, res0, res):
+        if its == 0 or res0 <= 0.0:
+            return
+        decades = max(math.log10(res0 / max(res, 1e-300)), 1e-3)
+        rate = its / decades
+        if self._fresh:
+            self._baseline = rate
+            self._fresh = False
+        elif (self._baseline is not None and its >= self.min_rebuild_iterations
+              and rate > self.rebuild_factor * self._baseline):
+            self._stale = True
+
+    def __call__(self, K, f, x0=None, rtol=None):
+        """``update(K)`` (skipped if K is the matrix already held) then ``solve``."""
+        if K is not self.K:
+            self.update(K)
+        return self.solve(f, x0=x0, rtol=rtol)
+
+    def close(self):
+        """Drop the hierarchy."""
+        self.ml = None
+        self._levels = None
+        self._stale = True
+
+
+# --------------------------------------------------------------------------------------------
+# factory
+# --------------------------------------------------------------------------------------------
+
+
+def make_solver(kind, pattern, *, coords=None, **options):
+    """Make a u-problem solver for one sparsity pattern.
+
+    Parameters
+    ----------
+    kind : {"auto", "direct", "amg"}
+        ``"auto"`` picks ``"amg"`` above :data:`AUTO_AMG_MIN_UNKNOWNS` unknowns (the lower
+        SuperLU crossover if PARDISO is not installed) when ``coords`` are given, else
+        ``"direct"``.
+    pattern : scipy.sparse matrix, shape (n, n)
+        A matrix with the fixed sparsity pattern (its values are not used).
+    coords : ndarray, shape (n, 2), optional
+        Node coordinates; required for ``"amg"``.
+    **options
+        Passed to :class:`DirectSolver` (``backend``, ``rtol``, ``max_refine``) or
+        :class:`AMGSolver` (``rtol``, ``maxiter``, ``rebuild_factor``,
+        ``min_rebuild_iterations`` and pyamg settings). ``rtol`` is accepted by both.
+
+    Returns
+    -------
+    DirectSolver or AMGSolver
+    """
+    if kind not in KINDS:
+        raise ValueError(f"kind = {kind!r}; allowed: {KINDS}")
+    if kind == "auto":
+        n = pattern.shape[0]
+        limit = AUTO_AMG_MIN_UNKNOWNS if pardiso_available() else AUTO_AMG_MIN_UNKNOWNS_SUPERLU
+        kind = "amg" if (coords is not None and n >= limit) else "direct"
+    common = {k: options.pop(k) for k in ("rtol",) if k in options}
+    if kind == "direct":
+        allowed = {"backend", "max_refine"}
+        bad = set(options) - allowed
+        if bad:
+            raise ValueError(f"unknown options {sorted(bad)} for kind='direct'; "
+                             f"allowed: {sorted(allowed | {'rtol'})}")
+        return DirectSolver(pattern, **common, **options)
+    return AMGSolver(pattern, coords=coords, **common, **options)
+
+
+# --------------------------------------------------------------------------------------------
+# test matrices (tests and benchmarks only; the model's operator is thinfilm.operators)
+# --------------------------------------------------------------------------------------------
+
+
+def _second_difference(m, h):
+    """Shape (m - 2, m): second differences at the interior nodes of an m-node line, 1/h^2."""
+    k = m - 2
+    return sp.diags([np.ones(k), -2.0 * np.ones(k), np.ones(k)], [0, 1, 2], shape=(k, m),
+                    format="csr") / h**2
+
+
+def _first_difference(m, h):
+    """Shape (m - 1, m): forward differences on the cells of an m-node line, 1/h."""
+    k = m - 1
+    return sp.diags([-np.ones(k), np.ones(k)], [0, 1], shape=(k, m), format="csr") / h
+
+
+def plate_test_matrix(alpha, *, nu=0.3, winkler=4e6, k_res=1e-6, length=1.0):
+    """Plate + Winkler stiffness on a square grid with free edges (a test system).
+
+    Energy ``1/2 Int g(alpha) W(D^2 u) + winkler/2 Int u^2`` with
+    ``W = u_xx^2 + u_yy^2 + 2 nu u_xx u_yy + 2 (1 - nu) u_xy^2``, ``g = (1 - alpha)^2 + k_res``,
+    discretized by second differences where they exist (free edges), the mixed derivative
+    on cells, and the edge-row density ``(1 - nu^2) u_tt^2`` where the normal second difference
+    is missing (SOLVER_NOTES.md). A 13-point stencil; SPD for ``winkler > 0``; without the
+    foundation its null space is exactly {1, x, y}.
+
+    Parameters
+    ----------
+    alpha : ndarray, shape (m, m) or (m*m,)
+        Damage at the nodes of an m x m grid, row-major (index ``iy * m + ix``), in [0, 1].
+    nu : float
+        Poisson ratio.
+    winkler : float
+        Foundation stiffness ``K/a^4`` (``= 4 lam^4``), in units of the plate rigidity / L^4.
+    k_res : float
+        Residual stiffness in the degradation.
+    length : float
+        Side of the square domain.
+
+    Returns
+    -------
+    K : scipy.sparse.csr_matrix, shape (m*m, m*m)
+        Scaled by the cell area ``h^2`` (energy = ``1/2 u.K u``), sorted indices.
+    """
+    alpha = np.asarray(alpha, dtype=np.float64)
+    m = int(round(math.sqrt(alpha.size)))
+    if m * m != alpha.size or m < 4:
+        raise ValueError(f"alpha must describe an m x m grid with m >= 4, got {alpha.size} nodes")
+    h = length / (m - 1)
+    g = ((1.0 - alpha) ** 2 + k_res).reshape(m, m)
+    eye = sp.identity(m, format="csr")
+    interior = eye[1:-1]
+    d2, d1 = _second_difference(m, h), _first_difference(m, h)
+    dxx = sp.kron(eye, d2, format="csr")      # rows: all iy, interior ix
+    dyy = sp.kron(d2, eye, format="csr")      # rows: interior iy, all ix
+    dxx_i = sp.kron(interior, d2, format="csr")
+    dyy_i = sp.kron(d2, interior, format="csr")
+    dxy = sp.kron(d1, d1, format="csr")       # rows: cells
+    wxx = g[:, 1:-1].copy()
+    wxx[[0, -1], :] *= 1.0 - nu**2           # y-edges: u_yy missing, M_nn = 0 eliminated
+    wyy = g[1:-1, :].copy()
+    wyy[:, [0, -1]] *= 1.0 - nu**2           # x-edges
+    g_cell = 0.25 * (g[:-1, :-1] + g[1:, :-1] + g[:-1, 1:] + g[1:, 1:])
+    cross = dxx_i.T @ sp.diags(nu * g[1:-1, 1:-1].ravel()) @ dyy_i
+    K = (dxx.T @ sp.diags(wxx.ravel()) @ dxx
+         + dyy.T @ sp.diags(wyy.ravel()) @ dyy
+         + cross + cross.T
+         + dxy.T @ sp.diags(2.0 * (1.0 - nu) * g_cell.ravel()) @ dxy
+         + sp.diags(np.full(m * m, float(winkler))))
+    K = (K * h**2).tocsr()
+    K.sort_indices()
+    return K
+
+
+def grid_coords(m, length=1.0):
+    """Node coordinates of the m x m test grid on ``(-length/2, length/2)^2``.
+
+    Returns
+    -------
+    coords : ndarray, shape (m*m, 2)
+        Columns x, y; row-major node order (``iy * m + ix``).
+    """
+    x = np.linspace(-0.5 * length, 0.5 * length, m)
+    X, Y = np.meshgrid(x, x)
+    return np.column_stack([X.ravel(), Y.ravel()])
+
+
+def crack_bands(m, *, grow=0, eta_cells=4.0):
+    """A realistic damage field on the m x m test grid of ``(-1/2, 1/2)^2``.
+
+    A through crack at x = 0.1 (cuts the plate in two), a crack from the left edge ending on
+    it (y = -0.2), a ring (centre (-0.15, 0.2), radius 0.15) and a partial diagonal crack from
+    (0.15, 0.1) whose tip advances by ``grow`` cells. alpha = 1 on a core at least one node
+    wide, with the AT1 profile ``(1 - d / 2 eta)^2`` around it, eta = ``eta_cells`` cells.
+
+    Returns
+    -------
+    alpha : ndarray, shape (m*m,)
+    """
+    h = 1.0 / (m - 1)
+    x = np.linspace(-0.5, 0.5, m)
+    X, Y = np.meshgrid(x, x)
+    eta = eta_cells * h
+    d = np.abs(X - 0.1)
+    d = np.minimum(d, np.where(X < 0.1, np.abs(Y + 0.2), np.inf))
+    d = np.minimum(d, np.abs(np.hypot(X + 0.15, Y - 0.2) - 0.15))
+    s_tip = 0.25 + grow * h
+    e = 1.0 / math.sqrt(2.0)
+    px, py = X - 0.15, Y - 0.1
+    s = np.clip((px + py) * e, 0.0, s_tip)
+    d = np.minimum(d, np.hypot(px - s * e, py - s * e))
+    d = np.maximum(d - 0.75 * h, 0.0)  # the alpha = 1 core
+    return (np.clip(1.0 - d / (2.0 * eta), 0.0, 1.0) ** 2).ravel()
