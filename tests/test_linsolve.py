@@ -277,3 +277,50 @@ def test_zero_rhs_gives_zero(cracked):
 def test_auto_picks_direct_for_small_systems(cracked):
     K1, _, _, c = cracked
     assert isinstance(make_solver("auto", K1, coords=c), DirectSolver)
+
+
+def test_amg_on_a_1d_beam_uses_near_nullspace_1_x():
+    n = 400
+    h = 1.0 / (n - 1)
+    d2 = sp.diags([1.0, -2.0, 1.0], [0, 1, 2], shape=(n - 2, n)) / h**2
+    # lam = 31.6: with lam = 2 at this h, rtol = 1e-8 is below the double-precision floor
+    # of the true residual (spsolve itself reaches only 2e-7)
+    K = ((d2.T @ d2 + 4e6 * sp.identity(n)) * h).tocsr()
+    x = np.linspace(-0.5, 0.5, n)
+    f = 4e6 * h * (-(x**2) / 2)
+    s = make_solver("amg", K, coords=x)
+    u, info = s(K, f)
+    assert relres(K, f, u) <= RTOL
+    assert np.linalg.norm(u - spla.spsolve(K.tocsc(), f)) <= 1e-5 * np.linalg.norm(u)
+
+
+@pytest.mark.parametrize("kind,opts", ALL_KINDS, ids=KIND_IDS)
+def test_tolerance_below_round_off_raises_naming_residual_and_iterations(cracked, kind, opts):
+    K1, _, f, c = cracked
+    s = make_solver(kind, K1, coords=c, **opts)
+    s.update(K1)
+    with pytest.raises(LinearSolverError, match=r"relative residual \S+ after \d+ iterations") as exc:
+        s.solve(f, rtol=1e-20)
+    assert np.isfinite(exc.value.residual) and exc.value.residual > 1e-20
+
+
+@pytest.mark.parametrize("kind", ["direct", "amg"])
+def test_solvers_on_the_real_plate_operator(kind):
+    # The model's own matrix (thinfilm.operators), cracked by a band across the plate.
+    import scipy.sparse.linalg as spla_
+
+    from thinfilm.grid import Grid
+    from thinfilm.operators import PlateOperator
+
+    grid = Grid.rectangle(-0.5, 0.5, 60, -0.3, 0.3, 36)
+    plate = PlateOperator(grid, 0.3, 4e4, 1e-6, clamped=("x0",))
+    X, Y = grid.coordinates
+    alpha = np.where(np.abs(X - 0.1) < 0.03, 1.0, 0.0)
+    K = plate.matrix(alpha)
+    f = plate.rhs(-0.5 * X**2)
+    solver = make_solver(kind, K, coords=np.column_stack(grid.coordinates))
+    solver.update(K)
+    u, info = solver.solve(f, rtol=1e-10)
+    exact = spla_.spsolve(K.tocsc(), f)
+    assert np.linalg.norm(u - exact) <= 1e-7 * np.linalg.norm(exact)
+    assert info.residual <= 1e-10

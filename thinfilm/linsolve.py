@@ -67,13 +67,15 @@ __all__ = [
 
 KINDS = ("auto", "direct", "amg")
 
-#: ``kind="auto"`` picks ``"amg"`` above this many unknowns. Measured on 2 cores (see
-#: ``benchmarks/results/usolve.md``): PARDISO's refactorization beat the reused AMG hierarchy
-#: at every size up to 1500^2 = 2.25e6 unknowns, so with PARDISO "auto" is "direct" there. Beyond
+#: ``kind="auto"`` picks ``"amg"`` from this many unknowns on. Measured on 2 cores (see
+#: ``benchmarks/results/usolve.md``): PARDISO's refactorization beat the AMG re-solve (kept
+#: hierarchy, warm start) up to 1000^2 and the two were even at 1500^2 = 2.25e6 unknowns, where
+#: AMG needs 35% less memory; PARDISO's first solve (with analysis) stayed 2-4x faster. Beyond
 #: the largest measured size the O(N^1.5) factorization time and its memory favour AMG.
 AUTO_AMG_MIN_UNKNOWNS = 1501 * 1501
-#: The same crossover when only scipy's SuperLU is available (no ``pypardiso``).
-AUTO_AMG_MIN_UNKNOWNS_SUPERLU = 501 * 501
+#: The same crossover when only scipy's SuperLU is available (no ``pypardiso``): SuperLU's
+#: refactorization beat the AMG re-solve at 250^2 and lost from 500^2 on.
+AUTO_AMG_MIN_UNKNOWNS_SUPERLU = 400 * 400
 
 DEFAULT_RTOL = 1e-8
 
@@ -488,41 +490,49 @@ class DirectSolver:
 # AMG
 # --------------------------------------------------------------------------------------------
 
-#: Smoothed-aggregation settings chosen by measurement (``benchmarks/bench_usolve.py``; see
-#: the module docstring of that file). ``presmoother``/``postsmoother`` must not cache anything
-#: derived from the level matrix, since the finest level's matrix is replaced on update:
-#: plain (point) symmetric Gauss-Seidel qualifies, ``block_gauss_seidel`` (caches inverted
-#: diagonal blocks) and ``jacobi`` (caches a spectral radius) do not.
+#: Smoothed-aggregation settings chosen by measurement at 500^2 (cracked plate, lam = 31.6,
+#: rtol 1e-8; setup s / cold CG its / warm re-solve its after 5 cells of crack growth):
+#: symmetric strength theta = 0.08 with Jacobi-smoothed P: 2.7 / 67 / 39;
+#: the same with energy-minimizing P: 8.0 / 43 / 15 (chosen);
+#: evolution strength + energy P (pyamg's ``solver_configuration``): 40 / 23 / 14.
+#: Forward Gauss-Seidel before and backward after (a symmetric V-cycle, so still a valid CG
+#: preconditioner) instead of symmetric sweeps both times: 57 / 19 iterations but each half
+#: the smoothing work, re-solve 1.4-1.7 s instead of 2.1-2.6 s.
+#: The smoothers must not cache anything derived from the level matrix, since the finest
+#: level's matrix is replaced on update: point Gauss-Seidel qualifies, ``block_gauss_seidel``
+#: (caches inverted diagonal blocks) and ``jacobi`` (caches a spectral radius) do not.
 AMG_DEFAULTS = dict(
     strength=("symmetric", {"theta": 0.08}),
     smooth=("energy", {"krylov": "cg", "maxiter": 3, "degree": 2, "weighting": "local"}),
-    presmoother=("gauss_seidel", {"sweep": "symmetric", "iterations": 1}),
-    postsmoother=("gauss_seidel", {"sweep": "symmetric", "iterations": 1}),
+    presmoother=("gauss_seidel", {"sweep": "forward", "iterations": 1}),
+    postsmoother=("gauss_seidel", {"sweep": "backward", "iterations": 1}),
     max_coarse=500,
     max_levels=10,
 )
 
 
 def near_nullspace(coords):
-    """Rigid modes of the free plate, ``B = [1, x, y]``, centred and scaled.
+    """Rigid modes of the free plate, ``B = [1, x, y]`` (a beam in 1D: ``[1, x]``).
 
     Parameters
     ----------
-    coords : ndarray, shape (n, 2)
+    coords : ndarray, shape (n, d) or (n,), d = 1 or 2
         Node coordinates (any length unit).
 
     Returns
     -------
-    B : ndarray, shape (n, 3)
-        Columns 1, (x - mean x)/L, (y - mean y)/L with L the larger extent (scaling keeps the
+    B : ndarray, shape (n, 1 + d)
+        Columns 1, (x - mean x)/L, ... with L the largest extent (the scaling keeps the
         columns of comparable size for the aggregation's local QR).
     """
     coords = np.asarray(coords, dtype=np.float64)
-    if coords.ndim != 2 or coords.shape[1] != 2:
-        raise ValueError(f"coords must have shape (n, 2), got {coords.shape}")
+    if coords.ndim == 1:
+        coords = coords[:, None]
+    if coords.ndim != 2 or coords.shape[1] not in (1, 2):
+        raise ValueError(f"coords must have shape (n, 2) or (n, 1), got {coords.shape}")
     c = coords - coords.mean(axis=0)
     L = float(np.ptp(coords, axis=0).max()) or 1.0
-    return np.column_stack([np.ones(len(c)), c[:, 0] / L, c[:, 1] / L])
+    return np.column_stack([np.ones(len(c)), c / L])
 
 
 class AMGSolver:
@@ -532,7 +542,7 @@ class AMGSolver:
     ----------
     pattern : scipy.sparse matrix, shape (n, n)
         Any matrix with the fixed sparsity pattern.
-    coords : ndarray, shape (n, 2)
+    coords : ndarray, shape (n, 2) (or (n, 1) for a 1D grid)
         Node coordinates, for the near-nullspace ``[1, x, y]`` (required: with the constant
         alone SA fails on the free plate).
     rtol : float
