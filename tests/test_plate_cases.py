@@ -99,3 +99,18 @@ def test_resolution_warnings():
     assert any("eta * lam" in w for w in resolution_warnings(coarse))
     thin = parse_scene(PLATE.replace("eta_dx = 10", "eta_dx = 1.5"))
     assert any("less than 2 grid cells" in w for w in resolution_warnings(thin))
+
+
+@pytest.mark.slow
+def test_fig2_7_strip_nine_cracks(tmp_path):
+    # About 2 minutes: pytest -m slow. Nine through-width cracks within 0.015 of 0, +-0.1,
+    # ..., +-0.4, first nucleation within 5% of t = 5.36, energy per unit width within 3%.
+    assert main(["compare", str(CASES / "fig2_7.toml"), "--out", str(tmp_path), "--quiet"]) == 0
+    events = _events(tmp_path / "summary.json")
+    first = next(e for e in events if len(e["cracks"]) >= 9)
+    assert len(events[0]["cracks"]) == 9 and abs(events[0]["t"] - 5.36068) < 0.05 * 5.36068
+    assert np.max(np.abs(np.array(first["cracks"]) - np.arange(-0.4, 0.41, 0.1))) < 0.015
+    report = json.loads((tmp_path / "compare.json").read_text())
+    t = np.array(report["energy_relative_error"]["t"])
+    error = np.abs(report["energy_relative_error"]["error"])
+    assert np.max(error[t >= events[0]["t"]]) < 0.03
