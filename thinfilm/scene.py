@@ -370,14 +370,14 @@ def _parse_plate(source, data, text):
     at = model.integer("at", minimum=1, default=1)
     if at not in (1, 2):
         model._fail("at", at, "must be 1 (AT1) or 2 (AT2)")
-    nu = model.number("nu", default=0.3) if model.has("nu") else 0.3
+    nu = model.number("nu", default=0.3)
     if not -1.0 < nu < 0.5:
         model._fail("nu", nu, "must be in (-1, 0.5)")
     if model.has("eta") == model.has("eta_dx"):
         both = "both are given" if model.has("eta") else "neither is given"
         raise SceneError(source, "model.eta", f"give exactly one of model.eta and model.eta_dx ({both})")
     eta = model.number("eta", minimum=0) if model.has("eta") else model.number("eta_dx", minimum=0) * dom.dx
-    k_res = model.number("k_res", minimum=0, default=1e-6) if model.has("k_res") else 1e-6
+    k_res = model.number("k_res", minimum=0, default=1e-6)
     params = PlateParameters(at=at, nu=nu, lam=_lam_or_winkler(model), toughness=model.number("toughness", minimum=0),
                              eta=eta, k_res=k_res)
 
@@ -389,17 +389,17 @@ def _parse_plate(source, data, text):
     direction = solver.integer("backtrack_direction", default=d.backtrack_direction)
     if direction not in (1, -1):
         solver._fail("backtrack_direction", direction, "must be 1 (oldest first) or -1 (newest first)")
-    omega = solver.number("omega", default=d.omega) if solver.has("omega") else d.omega
+    omega = solver.number("omega", default=d.omega)
     if not 1.0 <= omega < 2.0:
         solver._fail("omega", omega, "must be in [1, 2)")
     options = SolverOptions(
         linear=solver.choice("linear", ("auto", "direct", "amg"), default=d.linear),
-        tol=solver.number("tol", minimum=0, default=d.tol) if solver.has("tol") else d.tol,
+        tol=solver.number("tol", minimum=0, default=d.tol),
         max_iter=solver.integer("max_iter", minimum=1, default=d.max_iter),
         acceleration=solver.choice("acceleration", ("none", "overrelax", "anderson"), default=d.acceleration),
         omega=omega,
         backtrack=backtrack,
-        backtrack_delta=solver.number("backtrack_delta", minimum=0) if solver.has("backtrack_delta") else d.backtrack_delta,
+        backtrack_delta=solver.number("backtrack_delta", minimum=0, default=d.backtrack_delta),
         backtrack_interval=solver.integer("backtrack_interval", minimum=1, default=d.backtrack_interval),
         backtrack_direction=direction,
         backtrack_scope=solver.integer("backtrack_scope", minimum=0, default=d.backtrack_scope),
