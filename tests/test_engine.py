@@ -82,11 +82,12 @@ def test_backtracking_brings_nucleation_back_to_the_exact_load():
     grid, model = film()
     plain = Engine(model, AltMinOptions(tol=1e-4)).run(t)[1]
     grid, model = film()
-    back = Engine(model, AltMinOptions(tol=1e-4), BacktrackOptions(kind="standard")).run(t)[1]
+    back_records, back = Engine(model, AltMinOptions(tol=1e-4), BacktrackOptions(kind="standard")).run(t)
     t_plain = events_of(grid, plain)[0][0]
     t_back = events_of(grid, back)[0][0]
     t_exact = evolve(0.5, 10.0, 0.05, cells=1000, t_max=2.0)[0].t
     assert t_back < t_plain
+    assert sum(r.backtracks for r in back_records) >= 1  # recorded on the restarted step
     assert abs(t_back - t_exact) <= t[1] - t[0] + 1e-12
 
 

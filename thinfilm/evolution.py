@@ -174,7 +174,7 @@ class StepRecord:
     u_solves, u_solves_skipped : int
         Linear solves done, and skipped because alpha had not changed (proportional load).
     backtracks : int
-        Backtracks triggered from this step.
+        Backtracks that went back to this step and restarted it.
     trials, trials_accepted : int
         Nucleation-search trials tried and kept.
     time_u, time_alpha, time_total : float
@@ -298,9 +298,6 @@ class Engine:
                 anderson.reset()
         return alpha_star
 
-    def _energies(self, u, alpha, t):
-        return self.model.energies(u, alpha, t)
-
     # -- one load step --------------------------------------------------------------------
     def alternate_minimization(self, t, alpha0, lower, u0, record, step, history=None):
         """Alternate minimization at load ``t`` from ``alpha0`` (bounds ``lower <= alpha <= 1``).
@@ -335,7 +332,7 @@ class Engine:
             if not np.all(np.isfinite(u)):
                 raise EvolutionError(f"step {step} (t = {t:g}), alternate-minimization iteration {iteration}:"
                                      " the displacement is not finite")
-            record.energy_history.append(sum(self._energies(u, alpha, t)))
+            record.energy_history.append(sum(self.model.energies(u, alpha, t)))
             # Over-relax only while alternate minimization is in a slow, steady phase (the change
             # of alpha shrinks by less than half per iteration and is still far from tol): near
             # convergence an over-relaxed step overshoots and costs iterations instead.
@@ -344,7 +341,7 @@ class Engine:
             change = float(np.max(np.abs(alpha_new - alpha))) if alpha.size else 0.0
             changes.append(change)
             alpha = alpha_new
-            elastic, surface = self._energies(u, alpha, t)
+            elastic, surface = self.model.energies(u, alpha, t)
             record.energy_history.append(elastic + surface)
             record.iterations += 1
             self.work["iterations"] += 1
@@ -422,14 +419,14 @@ class Engine:
         alpha_prev = np.zeros(n_alpha) if alpha_initial is None else np.asarray(alpha_initial, float).copy()
         states: list[State] = []
         records: list[StepRecord] = []
-        lowers: list[np.ndarray] = []
+        backtracks_into: dict[int, int] = {}  # step -> backtracks that restarted it
         total_backtracks = 0
         i = 0
         alpha_start, u_start = alpha_prev, None
         while i < len(t_values):
             t = float(t_values[i])
             lower = alpha_prev if i == 0 else states[i - 1].alpha
-            record = StepRecord(i, t)
+            record = StepRecord(i, t, backtracks=backtracks_into.get(i, 0))
             started = time.perf_counter()
             try:
                 state = self.alternate_minimization(t, alpha_start, lower, u_start, record, i,
@@ -446,10 +443,10 @@ class Engine:
                 if total_backtracks > self.backtrack.max_backtracks:
                     raise EvolutionError(f"step {i} (t = {t:g}): more than {self.backtrack.max_backtracks}"
                                          " backtracks; raise backtrack.max_backtracks or delta") from None
-                record.backtracks += 1
                 k = back.k
+                backtracks_into[k] = backtracks_into.get(k, 0) + 1
                 progress(k - i)
-                del states[k:], records[k:], lowers[k:]
+                del states[k:], records[k:]
                 alpha_start = back.alpha
                 u_start = back.u * (t_values[k] / back.t_from)
                 i = k
@@ -458,7 +455,6 @@ class Engine:
             record.elastic, record.surface, record.total = state.elastic, state.surface, state.total
             states.append(state)
             records.append(record)
-            lowers.append(lower)
             if on_step is not None:
                 on_step(record, state)
             progress(1)

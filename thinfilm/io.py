@@ -248,11 +248,14 @@ class PlateResultsWriter:
 def read_plate(results):
     """Read a plate ``results.h5``: parameters, grid, per-step records and the alpha fields.
 
+    The displacement fields are not read (summaries and figures need only alpha; at 1500^2
+    nodes each field is 18 MB per step).
+
     Returns
     -------
     dict
         ``parameters`` and ``grid`` (dicts of attrs, plus ``x``/``y`` arrays), ``steps``
-        (dict of arrays), ``alpha`` and ``u`` (h5py-free arrays, shape (n, n_nodes)).
+        (dict of arrays), ``alpha`` (array, shape (n, n_nodes)) and ``scene`` (TOML text).
     """
     with h5py.File(results, "r") as f:
         grid = {k: v.item() if hasattr(v, "item") else v for k, v in f["grid"].attrs.items()}
@@ -264,7 +267,6 @@ def read_plate(results):
             "grid": grid,
             "steps": {k: v[()] for k, v in f["steps"].items()},
             "alpha": f["fields/alpha"][()],
-            "u": f["fields/u"][()],
             "scene": f.attrs["scene"],
         }
 

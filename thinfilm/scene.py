@@ -28,6 +28,8 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from onedim.fragment import lam_from_winkler, winkler_from_lam
+
 MODEL_KINDS = ("exact1d", "plate")
 
 
@@ -176,7 +178,7 @@ class Exact1DModel:
     @property
     def winkler(self):
         """Foundation stiffness ``K/a^4 = 4 lam^4``."""
-        return 4.0 * self.lam**4
+        return float(winkler_from_lam(self.lam))
 
 
 @dataclass(frozen=True)
@@ -225,7 +227,7 @@ def _lam_or_winkler(model):
         raise SceneError(model.source, "model.lam", f"give exactly one of model.lam and model.winkler ({both})")
     if has_lam:
         return model.number("lam", minimum=0)
-    return model.number("winkler", minimum=0) ** 0.25 / math.sqrt(2.0)
+    return float(lam_from_winkler(model.number("winkler", minimum=0)))
 
 
 def _parse_exact1d(source, data, text):
@@ -279,7 +281,7 @@ class PlateParameters:
     @property
     def winkler(self):
         """Foundation stiffness ``K/a^4 = 4 lam^4``."""
-        return 4.0 * self.lam**4
+        return float(winkler_from_lam(self.lam))
 
 
 @dataclass(frozen=True)
