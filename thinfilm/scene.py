@@ -318,7 +318,7 @@ class SolverOptions:
     tol: float = 1e-4
     max_iter: int = 2000
     acceleration: str = "none"
-    omega: float = 1.5
+    omega: float = 4.0
     backtrack: str = "none"
     backtrack_delta: float = 1e-6
     backtrack_interval: int = 10
@@ -392,13 +392,13 @@ def _parse_plate(source, data, text):
     if direction not in (1, -1):
         solver._fail("backtrack_direction", direction, "must be 1 (oldest first) or -1 (newest first)")
     omega = solver.number("omega", default=d.omega)
-    if not 1.0 <= omega < 2.0:
-        solver._fail("omega", omega, "must be in [1, 2)")
+    if not 1.0 <= omega <= 64.0:
+        solver._fail("omega", omega, "must be in [1, 64]")
     options = SolverOptions(
         linear=solver.choice("linear", ("auto", "direct", "amg"), default=d.linear),
         tol=solver.number("tol", minimum=0, default=d.tol),
         max_iter=solver.integer("max_iter", minimum=1, default=d.max_iter),
-        acceleration=solver.choice("acceleration", ("none", "overrelax", "anderson"), default=d.acceleration),
+        acceleration=solver.choice("acceleration", ("none", "overrelax"), default=d.acceleration),
         omega=omega,
         backtrack=backtrack,
         backtrack_delta=solver.number("backtrack_delta", minimum=0, default=d.backtrack_delta),
