@@ -1,8 +1,10 @@
-"""The command line: ``thinfilm run SCENE.toml [--out DIR] [--quiet]``.
+"""The command line: ``thinfilm run SCENE.toml [--out DIR] [--resume | --force] [--quiet]``.
 
 Library code raises exceptions; only this module turns them into messages and exit codes.
 A bad scene is reported in one line on stderr with exit status 2, before anything is
-computed or written.
+computed or written; so is an output directory that already holds results (unless
+``--resume`` or ``--force``). Ctrl-C stops a plate run after saving its finished steps (exit
+130); a solver failure keeps them too (exit 1).
 """
 
 from __future__ import annotations
@@ -18,6 +20,8 @@ from thinfilm import __version__
 from thinfilm.scene import SceneError, load_scene
 
 EXIT_BAD_INPUT = 2
+EXIT_FAILED = 1
+EXIT_INTERRUPTED = 130
 
 
 def default_outdir(scene_path):
@@ -31,6 +35,16 @@ def _run(args):
     outdir = Path(args.out) if args.out else default_outdir(args.scene)
     if outdir.exists() and not outdir.is_dir():
         raise SceneError(args.scene, None, f"output path {outdir} exists and is not a directory (use --out DIR)")
+    resume = getattr(args, "resume", False)
+    if resume and getattr(args, "force", False):
+        raise SceneError(args.scene, None, "--resume and --force exclude each other")
+    if resume and scene.kind != "plate":
+        raise SceneError(args.scene, None, f'--resume: only plate runs can be resumed (this scene is "{scene.kind}")')
+    existing = [p.name for p in (outdir / "results.h5", outdir / "summary.json") if p.exists()]
+    if existing and not resume and not getattr(args, "force", False):
+        raise SceneError(args.scene, None, f"output directory {outdir} already holds {', '.join(existing)};"
+                         " use --resume to continue the run or --force to overwrite it")
+    args.resume = resume and (outdir / "results.h5").exists()
 
     if scene.kind == "plate":
         return _run_plate(scene, outdir, args)
@@ -55,11 +69,23 @@ def _run(args):
 
 
 def _run_plate(scene, outdir, args):
-    from thinfilm.run import run_plate
+    from thinfilm.evolution import EvolutionError
+    from thinfilm.io import ResumeError
+    from thinfilm.run import RunInterrupted, run_plate
 
-    with tqdm(total=scene.load.steps + 1, desc=Path(args.scene).stem, unit="step",
-              disable=True if args.quiet else None, file=sys.stderr) as bar:
-        out = run_plate(scene, outdir, progress=bar.update)
+    try:
+        with tqdm(total=scene.load.steps + 1, desc=Path(args.scene).stem, unit="step",
+                  disable=True if args.quiet else None, file=sys.stderr) as bar:
+            out = run_plate(scene, outdir, progress=bar.update, resume=getattr(args, "resume", False))
+    except ResumeError as err:
+        raise SceneError(args.scene, None, str(err)) from None
+    except RunInterrupted as err:
+        print(f"thinfilm: {err}; continue with: thinfilm run {args.scene} --resume"
+              + (f" --out {args.out}" if args.out else ""), file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except EvolutionError as err:
+        print(f"thinfilm: error: {err} (the finished steps are in {outdir / 'results.h5'})", file=sys.stderr)
+        return EXIT_FAILED
     if not args.quiet:
         for t, cracks in out["events"]:
             print(f"t = {t:.6g}: {len(cracks)} crack(s) along y = 0 at " + ", ".join(f"{c:+.4f}" for c in cracks))
@@ -74,7 +100,9 @@ def _compare(args):
     outdir = Path(args.out) if args.out else default_outdir(args.scene)
     results = outdir / "results.h5"
     if not results.exists():
-        _run_plate(scene, outdir, args)
+        status = _run_plate(scene, outdir, args)
+        if status:
+            return status
     from thinfilm.compare import compare
 
     figure, report = compare(results, outdir)
@@ -86,6 +114,59 @@ def _compare(args):
             print(f"exact t = {e['exact_t']:.4f} ({len(e['exact_cracks'])} cracks); regularized: {reg}")
         print(f"wrote {figure}, {report}")
     return 0
+
+
+def _inspect_error(err):
+    """One line on stderr for a results file that cannot be read; the exit status."""
+    print(f"thinfilm: error: {err}", file=sys.stderr)
+    return EXIT_BAD_INPUT
+
+
+def _plot(args):
+    """``thinfilm plot RESULTS.h5``: redraw every figure from the file alone."""
+    import math
+
+    from thinfilm.plots import plot_results
+    from thinfilm.results import ResultsError
+
+    if args.t is not None and not all(math.isfinite(t) for t in args.t):
+        return _inspect_error(f"--t {' '.join(map(str, args.t))}: loads must be finite numbers")
+    try:
+        outdir = Path(args.out) if args.out else None
+        if outdir is not None and outdir.exists() and not outdir.is_dir():
+            return _inspect_error(f"--out {outdir}: exists and is not a directory")
+        kind, paths = plot_results(args.results, outdir, loads=args.t, animate=args.animate)
+    except (ResultsError, OSError) as err:
+        return _inspect_error(err)
+    if kind != "plate" and (args.t or args.animate):
+        print("thinfilm: warning: --t and --animate apply to plate runs only", file=sys.stderr)
+    print("wrote " + ", ".join(str(p) for p in paths))
+    return 0
+
+
+def _info(args):
+    """``thinfilm info RESULTS.h5``: scene, versions, progress, last energies, timings."""
+    from thinfilm.results import ResultsError, describe
+
+    try:
+        print(describe(args.results))
+    except (ResultsError, OSError) as err:
+        return _inspect_error(err)
+    return 0
+
+
+def _add_inspect_commands(sub):
+    """The subcommands that work from a results file alone: ``plot`` and ``info``."""
+    plot = sub.add_parser("plot", help="redraw every figure (and results.xdmf) from a results.h5 alone")
+    plot.add_argument("results", help="results.h5 of a run (or its run directory)")
+    plot.add_argument("--t", metavar="T", type=float, nargs="+",
+                      help="loads of the snapshot figures (nearest finished steps; default: 5 spread evenly)")
+    plot.add_argument("--out", metavar="DIR", help="output directory (default: beside the results file)")
+    plot.add_argument("--animate", action="store_true", help="also write alpha.gif, the damage over the load")
+    plot.set_defaults(func=_plot)
+    info = sub.add_parser("info", help="print a results.h5's scene, versions, progress, energies and timings")
+    info.add_argument("results", help="results.h5 of a run (or its run directory)")
+    info.set_defaults(func=_info)
 
 
 def build_parser():
@@ -100,19 +181,40 @@ def build_parser():
     run.add_argument("scene", help="scene file (TOML)")
     run.add_argument("--out", metavar="DIR", help="output directory (default: next to the scene, named after it)")
     run.add_argument("--quiet", action="store_true", help="no progress bar and no report")
+    run.add_argument("--resume", action="store_true",
+                     help="continue the run in the output directory from its last finished step")
+    run.add_argument("--force", action="store_true", help="overwrite results already in the output directory")
     run.set_defaults(func=_run)
     cmp_ = sub.add_parser("compare", help="run a plate scene (unless its results exist) and draw it against the exact 1D evolution")
     cmp_.add_argument("scene", help="plate scene file (TOML)")
     cmp_.add_argument("--out", metavar="DIR", help="output directory (default: next to the scene, named after it)")
     cmp_.add_argument("--quiet", action="store_true", help="no progress bar and no report")
     cmp_.set_defaults(func=_compare)
+    _add_inspect_commands(sub)
     return parser
+
+
+class _LogFormat(logging.Formatter):
+    def format(self, record):
+        prefix = "thinfilm: warning: " if record.levelno >= logging.WARNING else "thinfilm: "
+        return prefix + record.getMessage()
+
+
+def _configure_log(quiet):
+    """Warnings always go to stderr; the run log's information lines unless ``--quiet``."""
+    logger = logging.getLogger("thinfilm")
+    logger.handlers.clear()
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_LogFormat())
+    logger.addHandler(handler)
+    logger.setLevel(logging.WARNING if quiet else logging.INFO)
+    logger.propagate = False
 
 
 def main(argv=None):
     """Entry point of the ``thinfilm`` console script; returns the exit status."""
     args = build_parser().parse_args(argv)
-    logging.basicConfig(format="thinfilm: warning: %(message)s", level=logging.WARNING)
+    _configure_log(quiet=getattr(args, "quiet", False))
     try:
         return args.func(args)
     except SceneError as err:

@@ -434,7 +434,7 @@ class Engine:
 
     # -- the evolution --------------------------------------------------------------------
     def run(self, t_values, alpha_initial=None, on_step: Callable[[StepRecord, State], None] | None = None,
-            progress: Callable[[int], None] = lambda n: None):
+            progress: Callable[[int], None] = lambda n: None, history: Sequence[State] = ()):
         """March over the loads ``t_values`` (increasing, ``t_values[0]`` usually 0).
 
         Parameters
@@ -449,6 +449,10 @@ class Engine:
         progress : callable, optional
             Called with the number of newly finished steps (for a progress bar; negative
             after a backtrack).
+        history : sequence of State, optional
+            Steps ``0 .. k`` already finished (a resumed run): the evolution continues at
+            step ``k + 1`` exactly as if it had not stopped. Each state needs ``t``,
+            ``alpha`` and the energies, and the last one also ``u``.
 
         Returns
         -------
@@ -458,12 +462,21 @@ class Engine:
         t_values = np.asarray(t_values, dtype=float)
         n_alpha = self.model.n_alpha
         alpha_prev = np.zeros(n_alpha) if alpha_initial is None else np.asarray(alpha_initial, float).copy()
-        states: list[State] = []
-        records: list[StepRecord] = []
+        states: list[State] = list(history)
+        records: list[StepRecord] = [StepRecord(k, s.t, s.elastic, s.surface, s.total) for k, s in enumerate(states)]
         backtracks_into: dict[int, int] = {}  # step -> backtracks that restarted it
         total_backtracks = 0
-        i = 0
+        i = len(states)
         alpha_start, u_start = alpha_prev, None
+        if states:
+            # Continue as the uninterrupted run would: from the last state, u scaled to the
+            # next load, and the u of the last state remembered (an unchanged alpha under a
+            # proportional load then needs no solve, as it did not before the stop).
+            last = states[-1]
+            alpha_start = last.alpha
+            if i < len(t_values):
+                u_start = last.u * (t_values[i] / last.t) if last.t != 0 else last.u
+            self._u_cache = (last.u, last.alpha.copy(), last.t)
         while i < len(t_values):
             t = float(t_values[i])
             lower = alpha_prev if i == 0 else states[i - 1].alpha

@@ -194,8 +194,17 @@ class PlateResultsWriter:
     grid : thinfilm.grid.Grid
     """
 
-    def __init__(self, path, scene, grid):
+    def __init__(self, path, scene, grid, resume=False):
         self.path = Path(path)
+        if resume:
+            self.file = h5py.File(self.path, "r+")
+            stored = self.file.attrs.get("scene", "")
+            if stored != scene.text:
+                self.file.close()
+                raise ResumeError(f"{self.path} was written by a different scene text; it cannot be resumed"
+                                  " (run with --force to start over)")
+            self.trim()  # a step whose write was cut short is not finished
+            return
         self.file = h5py.File(self.path, "w")
         f = self.file
         f.attrs.update({
@@ -209,6 +218,14 @@ class PlateResultsWriter:
             "at": m.at, "nu": m.nu, "lam": m.lam, "winkler": m.winkler, "toughness": m.toughness,
             "eta": m.eta, "k_res": m.k_res, "t_max": scene.load.t_max, "steps": scene.load.steps,
         })
+        if scene.material is not None:
+            mat = scene.material
+            f.create_group("material").attrs.update({
+                "E": mat.E, "nu": mat.nu, "h": mat.h, "Gc": mat.Gc, "bond_stiffness": mat.bond_stiffness,
+                "L": mat.L, **mat.groups()})
+        load = scene.load
+        f["parameters"].attrs.update({"load": load.kind, **({"radius": load.radius} if load.radius else {}),
+                                      **({"field_file": load.file} if load.file else {})})
         g = f.create_group("grid")
         g.attrs.update({"dim": grid.dim, "x0": grid.x0, "x1": grid.x1, "nx": grid.nx})
         g["x"] = np.asarray(grid.x)
@@ -228,21 +245,71 @@ class PlateResultsWriter:
         f.flush()
 
     def write_step(self, record, state):
-        """Store step ``record.index`` (truncating any later steps) and flush."""
+        """Store step ``record.index`` (truncating any later steps) and flush.
+
+        The fields are written before the step's records, so a step counts as finished
+        (``/steps/t`` has it) only once its fields are stored.
+        """
         k = record.index
         f = self.file
-        for name in STEP_FIELDS:
-            ds = f["steps"][name]
-            ds.resize((k + 1,))
-            ds[k] = getattr(record, name)
         for name, values in (("u", state.u), ("alpha", state.alpha)):
             ds = f["fields"][name]
             ds.resize((k + 1, ds.shape[1]))
             ds[k] = values
+        for name in STEP_FIELDS:
+            ds = f["steps"][name]
+            ds.resize((k + 1,))
+            ds[k] = getattr(record, name)
         f.flush()
+
+    def trim(self):
+        """Cut every dataset to the finished steps (after a write was interrupted); returns their number."""
+        f = self.file
+        n = min([len(f["steps"][name]) for name in STEP_FIELDS] + [len(f["fields"][name]) for name in ("u", "alpha")])
+        for name in STEP_FIELDS:
+            f["steps"][name].resize((n,))
+        for name in ("u", "alpha"):
+            ds = f["fields"][name]
+            ds.resize((n, ds.shape[1]))
+        f.flush()
+        return n
 
     def close(self):
         self.file.close()
+
+
+class ResumeError(RuntimeError):
+    """A results file that cannot be continued; the message is one line for the user."""
+
+
+def read_history(results, all_alpha=True):
+    """The finished steps of a plate ``results.h5``, to resume the evolution from.
+
+    Parameters
+    ----------
+    results : Path
+    all_alpha : bool
+        Read the damage of every finished step (backtracking may return to any of them);
+        otherwise only the last one's, the others' left as None.
+
+    Returns
+    -------
+    list of thinfilm.evolution.State
+        One per finished step; the last one carries ``u``.
+    """
+    from thinfilm.evolution import State
+
+    with h5py.File(results, "r") as f:
+        steps = f["steps"]
+        n = min(len(steps["t"]), len(f["fields/alpha"]), len(f["fields/u"]))
+        t, elastic, surface = steps["t"][:n], steps["elastic"][:n], steps["surface"][:n]
+        states = []
+        for k in range(n):
+            last = k == n - 1
+            alpha = f["fields/alpha"][k] if (all_alpha or last) else None
+            u = f["fields/u"][k] if last else None
+            states.append(State(float(t[k]), u, alpha, float(elastic[k]), float(surface[k])))
+    return states
 
 
 def read_plate(results):

@@ -9,14 +9,16 @@ made from the file.
 from __future__ import annotations
 
 import logging
+import math
 from pathlib import Path
 
 import numpy as np
 
+from thinfilm import loads
 from thinfilm.cracks import centre_line, crack_positions
 from thinfilm.evolution import AltMinOptions, BacktrackOptions, Engine, SearchOptions
 from thinfilm.grid import Grid
-from thinfilm.io import PlateResultsWriter, read_plate, write_plate_summary
+from thinfilm.io import PlateResultsWriter, read_history, read_plate, write_plate_summary
 from thinfilm.linsolve import make_solver
 from thinfilm.model import PlateModel
 
@@ -30,10 +32,16 @@ def build_grid(domain):
     return Grid.rectangle(domain.x[0], domain.x[1], domain.cells[0], domain.y[0], domain.y[1], domain.cells[1])
 
 
-def bending_load(grid):
-    """``w_t = -t x^2 / 2`` (pure bending), as a function of t; proportional."""
-    w1 = -0.5 * grid.coordinates[0] ** 2
-    return lambda t: t * w1
+def make_load(scene, grid):
+    """The scene's substrate displacement (:mod:`thinfilm.loads`)."""
+    load = scene.load
+    if load.kind == "bending":
+        return loads.bending(grid)
+    if load.kind == "cantilever":
+        return loads.cantilever(grid)
+    if load.kind == "indenter":
+        return loads.indenter(grid, load.radius)
+    return loads.field(grid, load.field)
 
 
 def resolution_warnings(scene):
@@ -42,27 +50,52 @@ def resolution_warnings(scene):
     The damage band has width ``~ 4 eta``; the plate's response decays over ``1/lam`` and
     cracks of the exact 1D solution are at least ``~ 3/lam`` apart, so ``eta lam`` well below
     1 is needed (SOLVER_NOTES.md: ``eta lam = 0.53`` goes diffuse on the Fig. 2.7 strip, 0.26
-    resolves it).
+    resolves it). An indenter whose contact disk comes within a few decay lengths of a free
+    edge feels the edge (and would better be run on a larger domain).
     """
-    m = scene.model
+    m, dom = scene.model, scene.domain
     out = []
     if m.eta * m.lam > 0.4:
         out.append(f"eta * lam = {m.eta * m.lam:.2f} > 0.4: the regularization length is not small against the"
                    f" decay length 1/lam = {1 / m.lam:.4g}; damage may go diffuse and cracks merge")
-    if m.eta < 2.0 * scene.domain.dx:
-        out.append(f"eta = {m.eta:.4g} is less than 2 grid cells (dx = {scene.domain.dx:.4g}): the damage"
+    if m.eta < 2.0 * dom.dx:
+        out.append(f"eta = {m.eta:.4g} is less than 2 grid cells (dx = {dom.dx:.4g}): the damage"
                    " profile is not resolved and the crack energy is overestimated")
+    if scene.load.kind == "indenter":
+        t = scene.load.t_max
+        contact = scene.load.radius * math.sqrt(t * (2.0 - t))
+        edges = [abs(v) for v in dom.x] + ([abs(v) for v in dom.y] if dom.y else [])
+        gap = min(edges) - contact
+        if gap < 3.0 / m.lam:
+            out.append(f"the contact radius reaches {contact:.4g} at t = {t:g}, {gap:.4g} from a free edge: less than"
+                       f" 3 decay lengths (3/lam = {3 / m.lam:.4g}); the edge changes the cracks")
     return out
+
+
+def describe(scene):
+    """Lines for the run log: the non-dimensional groups, the decay length, the grid."""
+    m, dom = scene.model, scene.domain
+    lines = []
+    if scene.material is not None:
+        mat = scene.material
+        g = mat.groups()
+        lines.append(f"material: E = {mat.E:.4g} Pa, nu = {mat.nu:g}, h = {mat.h:.4g} m, Gc = {mat.Gc:.4g} J/m^2,"
+                     f" K_b = {mat.bond_stiffness:.4g} Pa/m, L = {mat.L:.4g} m")
+        lines.append(f"groups (2.13): K~ = {g['K_tilde']:.4g}, G~ = {g['G_tilde']:.4g}, a = h/L = {g['a']:.4g}"
+                     f" -> winkler = K~/a^4 = {g['winkler']:.4g}, toughness = G~/a = {g['toughness']:.4g}")
+    lines.append(f"decay length 1/lam = {1 / m.lam:.4g} (lam = {m.lam:.4g}, winkler = {m.winkler:.4g});"
+                 f" eta = {m.eta:.4g} = {m.eta / dom.dx:.3g} dx; eta * lam = {m.eta * m.lam:.3g}")
+    return lines
 
 
 def make_model(scene, grid):
     """The :class:`PlateModel` of a plate scene."""
     m = scene.model
-    if scene.load.kind != "bending":  # pragma: no cover - the scene parser allows only bending
-        raise ValueError(f"load.kind = {scene.load.kind!r}")
+    load = make_load(scene, grid)
     plate_nu = m.nu if grid.dim == 2 else 0.0
-    model = PlateModel(grid, plate_nu, m.winkler, m.k_res, m.eta, m.toughness, m.at, bending_load(grid),
-                       proportional=True, linear_solver=None, trial_radius=m.eta)
+    model = PlateModel(grid, plate_nu, m.winkler, m.k_res, m.eta, m.toughness, m.at, load.w,
+                       proportional=load.proportional, linear_solver=None, clamped=load.clamped,
+                       trial_radius=m.eta)
     model.linear_solver = make_solver(scene.solver.linear, model.plate.matrix(np.zeros(grid.n_nodes)),
                                       coords=np.column_stack(grid.coordinates))
     return model
@@ -105,8 +138,22 @@ def crack_events(grid, t, alpha):
     return events
 
 
-def run_plate(scene, outdir, progress=lambda n: None):
+class RunInterrupted(Exception):
+    """A run stopped by the user (Ctrl-C) after saving its finished steps."""
+
+    def __init__(self, results, steps_done):
+        super().__init__(f"interrupted; {steps_done} finished step(s) saved in {results}")
+        self.results, self.steps_done = results, steps_done
+
+
+def run_plate(scene, outdir, progress=lambda n: None, resume=False):
     """Run a plate scene and write ``results.h5``, ``summary.json`` and the figures.
+
+    Every finished step is in ``results.h5`` (flushed) as soon as it is done, so a run that
+    is killed leaves a valid file, and ``resume=True`` continues it from its last finished
+    step to the same results as an uninterrupted run. Ctrl-C closes the file and raises
+    :class:`RunInterrupted`; a solver failure (:class:`thinfilm.evolution.EvolutionError`)
+    propagates with the finished steps saved.
 
     Parameters
     ----------
@@ -114,6 +161,8 @@ def run_plate(scene, outdir, progress=lambda n: None):
     outdir : Path
     progress : callable
         Called with the number of newly finished steps.
+    resume : bool
+        Continue ``outdir/results.h5`` (written by the same scene text).
 
     Returns
     -------
@@ -123,6 +172,8 @@ def run_plate(scene, outdir, progress=lambda n: None):
     """
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
+    for line in describe(scene):
+        log.info(line)
     for message in resolution_warnings(scene):
         log.warning(message)
     grid = build_grid(scene.domain)
@@ -130,9 +181,15 @@ def run_plate(scene, outdir, progress=lambda n: None):
     engine = make_engine(scene, model)
     t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
     results = outdir / "results.h5"
-    writer = PlateResultsWriter(results, scene, grid)
+    history = read_history(results, all_alpha=scene.solver.backtrack != "none") if resume else []
+    writer = PlateResultsWriter(results, scene, grid, resume=resume)
+    if history:
+        log.info(f"resuming {results} after step {len(history) - 1} (t = {history[-1].t:g})")
+        progress(len(history))
     try:
-        engine.run(t_values, on_step=writer.write_step, progress=progress)
+        engine.run(t_values, on_step=writer.write_step, progress=progress, history=history)
+    except KeyboardInterrupt:
+        raise RunInterrupted(results, writer.trim()) from None
     finally:
         writer.close()
     data = read_plate(results)

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from onedim.fragment import lam_from_winkler, winkler_from_lam
+from thinfilm.units import Material, toughness_from_KIC
 
 MODEL_KINDS = ("exact1d", "plate")
 
@@ -303,11 +304,32 @@ class Domain:
 
 @dataclass(frozen=True)
 class PlateLoad:
-    """``kind = "bending"``: ``w_t = -t x^2 / 2``, t in ``[0, t_max]`` in ``steps`` steps."""
+    """The substrate displacement (:mod:`thinfilm.loads`), t in ``[0, t_max]`` in ``steps`` steps.
+
+    Attributes
+    ----------
+    kind : {"bending", "cantilever", "indenter", "field"}
+    t_max : float
+    steps : int
+    radius : float or None
+        Indenter radius (units of L).
+    field : ndarray or None, shape (n_nodes,)
+        The displacement at t = 1 of a ``"field"`` load, read from ``file``.
+    file : str or None
+        Where the field came from.
+    """
 
     kind: str
     t_max: float
     steps: int
+    radius: float | None = None
+    field: object = None
+    file: str | None = None
+
+    @property
+    def proportional(self):
+        """All loads but the indenter scale with t."""
+        return self.kind != "indenter"
 
 
 @dataclass(frozen=True)
@@ -339,17 +361,18 @@ class PlateScene:
     text: str
     source: str
     kind: str = "plate"
+    material: Material | None = None
 
 
 def _parse_plate(source, data, text):
-    top = _Table(source, "scene", data, ("model", "domain", "load", "solver"))
+    top = _Table(source, "scene", data, ("model", "domain", "load", "solver", "material"))
     for name in ("model", "domain", "load"):
         if not top.has(name):
             raise SceneError(source, name, f"missing table [{name}] (required)")
     model = _Table(source, "model", data["model"],
                    ("kind", "at", "nu", "lam", "winkler", "toughness", "eta", "eta_dx", "k_res"))
     domain = _Table(source, "domain", data["domain"], ("x", "y", "cells"))
-    load = _Table(source, "load", data["load"], ("kind", "t_max", "steps"))
+    load = _Table(source, "load", data["load"], ("kind", "t_max", "steps", "radius", "file", "name"))
     solver = _Table(source, "solver", data.get("solver", {}),
                     ("linear", "tol", "max_iter", "acceleration", "omega", "backtrack", "backtrack_delta", "backtrack_interval",
                      "backtrack_direction", "backtrack_scope", "search", "search_delta"))
@@ -372,7 +395,8 @@ def _parse_plate(source, data, text):
     at = model.integer("at", minimum=1, default=1)
     if at not in (1, 2):
         model._fail("at", at, "must be 1 (AT1) or 2 (AT2)")
-    nu = model.number("nu", default=0.3)
+    material = _parse_material(source, data, model) if top.has("material") else None
+    nu = material.nu if material else model.number("nu", default=0.3)
     if not -1.0 < nu < 0.5:
         model._fail("nu", nu, "must be in (-1, 0.5)")
     if model.has("eta") == model.has("eta_dx"):
@@ -380,14 +404,19 @@ def _parse_plate(source, data, text):
         raise SceneError(source, "model.eta", f"give exactly one of model.eta and model.eta_dx ({both})")
     eta = model.number("eta", minimum=0) if model.has("eta") else model.number("eta_dx", minimum=0) * dom.dx
     k_res = model.number("k_res", minimum=0, default=1e-6)
-    params = PlateParameters(at=at, nu=nu, lam=_lam_or_winkler(model), toughness=model.number("toughness", minimum=0),
-                             eta=eta, k_res=k_res)
+    if material:
+        lam, toughness = float(lam_from_winkler(material.winkler)), material.toughness
+    else:
+        lam, toughness = _lam_or_winkler(model), model.number("toughness", minimum=0)
+    params = PlateParameters(at=at, nu=nu, lam=lam, toughness=toughness, eta=eta, k_res=k_res)
 
-    plate_load = PlateLoad(kind=load.choice("kind", ("bending",), default="bending"),
-                           t_max=load.number("t_max", minimum=0), steps=load.integer("steps", minimum=2))
+    plate_load = _parse_load(source, load, dom)
 
     d = SolverOptions()
     backtrack = solver.choice("backtrack", ("none", "standard", "deep"), default=d.backtrack)
+    if backtrack != "none" and not plate_load.proportional:
+        solver._fail("backtrack", backtrack, f'backtracking needs a load proportional to t; load.kind ='
+                     f' "{plate_load.kind}" is not (use "none")')
     direction = solver.integer("backtrack_direction", default=d.backtrack_direction)
     if direction not in (1, -1):
         solver._fail("backtrack_direction", direction, "must be 1 (oldest first) or -1 (newest first)")
@@ -409,7 +438,95 @@ def _parse_plate(source, data, text):
         search_delta=(solver.number("search_delta", minimum=0, exclusive=False)
                       if solver.has("search_delta") else 1e-3 * params.toughness),
     )
-    return PlateScene(model=params, domain=dom, load=plate_load, solver=options, text=text, source=str(source))
+    return PlateScene(model=params, domain=dom, load=plate_load, solver=options, text=text, source=str(source),
+                      material=material)
+
+
+_MATERIAL_KEYS = ("E", "nu", "h", "Gc", "K_IC", "bond_stiffness", "L")
+
+
+def _parse_material(source, data, model):
+    """``[material]``: physical E, nu, h, Gc or K_IC, bond stiffness, L (SI units)."""
+    for key in ("lam", "winkler", "toughness", "nu"):
+        if model.has(key):
+            raise SceneError(source, f"model.{key}", "not allowed with a [material] table, which gives"
+                             " winkler, toughness and nu through (2.13)")
+    table = _Table(source, "material", data["material"], _MATERIAL_KEYS)
+    E = table.number("E", minimum=0)
+    if table.has("Gc") == table.has("K_IC"):
+        both = "both are given" if table.has("Gc") else "neither is given"
+        raise SceneError(source, "material.Gc", f"give exactly one of material.Gc and material.K_IC ({both})")
+    Gc = table.number("Gc", minimum=0) if table.has("Gc") else toughness_from_KIC(table.number("K_IC", minimum=0), E)
+    nu = table.number("nu", default=0.3)
+    if not -1.0 < nu < 0.5:
+        table._fail("nu", nu, "must be in (-1, 0.5)")
+    return Material(E=E, nu=nu, h=table.number("h", minimum=0), Gc=Gc,
+                    bond_stiffness=table.number("bond_stiffness", minimum=0), L=table.number("L", minimum=0))
+
+
+_LOAD_KINDS = ("bending", "cantilever", "indenter", "field")
+
+
+def _parse_load(source, load, dom):
+    """``[load]``: kind, t_max, steps, and the kind's own keys (radius; file, name)."""
+    kind = load.choice("kind", _LOAD_KINDS, default="bending")
+    t_max = load.number("t_max", minimum=0)
+    steps = load.integer("steps", minimum=2)
+    own = {"indenter": ("radius",), "field": ("file", "name")}.get(kind, ())
+    for key in ("radius", "file", "name"):
+        if load.has(key) and key not in own:
+            load._fail(key, load.data[key], f'is not used by load.kind = "{kind}"')
+    radius = field = file = None
+    if kind == "indenter":
+        radius = load.number("radius", minimum=0)
+        if t_max > 1.0:
+            load._fail("t_max", t_max, "must be <= 1 for the indenter (t = 1: pressed to its radius)")
+    if kind == "cantilever" and dom.x[0] != 0.0:
+        raise SceneError(source, "domain.x", f"= {_show(list(dom.x))}: the cantilever is clamped at x = 0;"
+                         " the domain must start there")
+    if kind == "field":
+        file, field = _read_field(source, load, dom)
+    return PlateLoad(kind=kind, t_max=t_max, steps=steps, radius=radius, field=field, file=file)
+
+
+def _read_field(source, load, dom):
+    """The substrate displacement of a ``"field"`` load, from ``.npz`` or HDF5, checked."""
+    import numpy as np
+
+    name = load.data.get("name", "w")
+    if not isinstance(name, str):
+        load._fail("name", name, "must be a string (the array's name in the file)")
+    raw = load.data.get("file")
+    if not isinstance(raw, str):
+        load._fail("file", raw if raw is not None else "missing", "must be the path of an .npz or HDF5 file")
+    path = Path(raw)
+    if not path.is_absolute() and source != "<string>":
+        path = Path(source).parent / path
+    try:
+        if path.suffix == ".npz":
+            with np.load(path) as archive:
+                if name not in archive:
+                    load._fail("name", name, f"no array of that name in {raw} (it has: {', '.join(archive.files)})")
+                w = np.asarray(archive[name], dtype=float)
+        elif path.suffix in (".h5", ".hdf5"):
+            import h5py
+
+            with h5py.File(path, "r") as f:
+                if name not in f:
+                    load._fail("name", name, f"no dataset of that name in {raw}")
+                w = np.asarray(f[name][()], dtype=float)
+        else:
+            load._fail("file", raw, "must end in .npz, .h5 or .hdf5")
+    except (OSError, ValueError) as err:
+        load._fail("file", raw, f"cannot be read ({err.__class__.__name__}: {err})".replace("\n", " "))
+    shape = tuple(c + 1 for c in reversed(dom.cells))  # (ny + 1, nx + 1) or (nx + 1,)
+    n_nodes = int(np.prod(shape))
+    if w.shape not in (shape, (n_nodes,)):
+        load._fail("file", raw, f"array {name!r} has shape {w.shape}; the grid needs {shape} (nodes, [y, x] order)"
+                   f" or ({n_nodes},)")
+    if not np.all(np.isfinite(w)):
+        load._fail("file", raw, f"array {name!r} has {int(np.sum(~np.isfinite(w)))} non-finite values")
+    return str(path), w.reshape(n_nodes)
 
 
 _PARSERS = {"exact1d": _parse_exact1d, "plate": _parse_plate}

@@ -1,0 +1,102 @@
+"""Substrate displacements ``w_t``: the loads of the thin-film scenes (MODEL.md, chapter 2).
+
+Each load is a :class:`Load`: a function ``t -> w_t`` at the grid nodes, whether it is
+proportional to ``t`` (then the minimizing ``u`` scales with ``t`` at fixed damage, which
+the engine's backtracking and u-solve skipping need), and the edges the load clamps.
+
+* ``bending``: ``w_t = -t x^2 / 2`` (pure bending of a strip or 1D film);
+* ``cantilever``: ``w_t = t (x - x0)^2 (3 lx - (x - x0))``, clamped at ``x = x0`` (the
+  deflection of a cantilever of length ``lx`` under an end force);
+* ``indenter``: a sphere of radius ``R`` whose centre is at height ``R (1 - t)``; the
+  substrate follows it where it touches, ``r^2 < r_c^2 = R^2 t (2 - t)``, and stays flat
+  elsewhere. Not proportional to ``t``;
+* ``field``: a displacement given at the nodes, scaled by ``t``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from thinfilm.grid import Grid
+
+
+@dataclass(frozen=True)
+class Load:
+    """A substrate displacement as a function of the load parameter.
+
+    Attributes
+    ----------
+    w : callable
+        ``w(t) -> ndarray, shape (n_nodes,)``, the substrate displacement at the nodes
+        (non-dimensional, units of L).
+    proportional : bool
+        ``w(t) = t w(1)``.
+    clamped : tuple of str
+        Edges clamped by the load (``"x0"``, ``"x1"``, ``"y0"``, ``"y1"``).
+    """
+
+    w: Callable[[float], np.ndarray]
+    proportional: bool
+    clamped: tuple = ()
+
+
+def bending(grid: Grid) -> Load:
+    """Pure bending ``w_t = -t x^2 / 2``."""
+    w1 = -0.5 * grid.coordinates[0] ** 2
+    return Load(lambda t: t * w1, True)
+
+
+def cantilever(grid: Grid) -> Load:
+    """Coated cantilever clamped at ``x = x0``: ``w_t = t s^2 (3 lx - s)``, ``s = x - x0``."""
+    s = grid.coordinates[0] - grid.x0
+    lx = grid.x1 - grid.x0
+    w1 = s**2 * (3.0 * lx - s)
+    return Load(lambda t: t * w1, True, clamped=("x0",))
+
+
+def indenter_displacement(x, y, radius, t):
+    """The substrate under a sphere of radius ``R`` pressed to depth ``R t``.
+
+    Parameters
+    ----------
+    x, y : ndarray
+        Node coordinates (units of L), same shape.
+    radius : float
+        ``R`` (units of L).
+    t : float
+        Load in [0, 1]: the sphere's centre is at height ``R (1 - t)``.
+
+    Returns
+    -------
+    ndarray
+        ``R (1 - t) - sqrt(R^2 - r^2)`` where ``r^2 < R^2 t (2 - t)``, else 0; it is
+        continuous at the contact radius and ``-R t`` at the centre.
+    """
+    r2 = np.asarray(x) ** 2 + np.asarray(y) ** 2
+    contact = r2 < radius**2 * t * (2.0 - t)
+    out = np.zeros(np.shape(r2))
+    out[contact] = radius * (1.0 - t) - np.sqrt(radius**2 - r2[contact])
+    return out
+
+
+def indenter(grid: Grid, radius: float) -> Load:
+    """Spherical indenter of radius ``radius`` centred at the origin (not proportional)."""
+    if grid.dim == 1:
+        x, y = grid.coordinates[0], np.zeros_like(grid.coordinates[0])
+    else:
+        x, y = grid.coordinates
+    return Load(lambda t: indenter_displacement(x, y, radius, t), False)
+
+
+def field(grid: Grid, w1: np.ndarray) -> Load:
+    """A given substrate displacement ``w1`` at the nodes, scaled by t.
+
+    Parameters
+    ----------
+    w1 : ndarray, shape ``grid.shape`` or ``(n_nodes,)``
+    """
+    w1 = np.asarray(w1, dtype=float).reshape(grid.n_nodes)
+    return Load(lambda t: t * w1, True)
