@@ -271,6 +271,8 @@ def _draw_curves(res, steps, field, values, path, title):
 
 
 def _snapshots(res, outdir, field, loads=None, count=SNAPSHOTS, path=None, title=None):
+    """Draw ``field`` at the steps of :func:`snapshot_steps` into ``path`` (default
+    ``outdir/<field>_snapshots.png``); ``res`` is an open :class:`PlateResults`."""
     if res.n == 0:
         raise ResultsError(f"{res.path}: no finished step to plot")
     steps = snapshot_steps(res.t, loads, count)
@@ -392,10 +394,6 @@ def _animate(res, outdir, max_frames=MAX_FRAMES, fps=10):
     return path
 
 
-def _open_plate(results):
-    return results if isinstance(results, PlateResults) else PlateResults(results)
-
-
 def plot_snapshots(results, outdir=None, loads=None, field="alpha", count=SNAPSHOTS):
     """Draw ``<field>_snapshots.png``: a field at a few loads with one shared colour scale.
 
@@ -419,7 +417,7 @@ def plot_snapshots(results, outdir=None, loads=None, field="alpha", count=SNAPSH
     """
     if field not in _LABEL:
         raise ValueError(f"field = {field!r}: must be one of {', '.join(_LABEL)}")
-    with _open_plate(results) as res:
+    with PlateResults(results) as res:
         return _snapshots(res, outdir if outdir is not None else res.path.parent, field, loads, count)
 
 
@@ -430,7 +428,7 @@ def plot_energies(results, outdir=None):
     -------
     Path
     """
-    with _open_plate(results) as res:
+    with PlateResults(results) as res:
         return _energies(res, outdir if outdir is not None else res.path.parent)
 
 
@@ -441,7 +439,7 @@ def plot_iterations(results, outdir=None):
     -------
     Path
     """
-    with _open_plate(results) as res:
+    with PlateResults(results) as res:
         return _iterations(res, outdir if outdir is not None else res.path.parent)
 
 
@@ -461,7 +459,7 @@ def animate_alpha(results, outdir=None, max_frames=MAX_FRAMES, fps=10):
     -------
     Path
     """
-    with _open_plate(results) as res:
+    with PlateResults(results) as res:
         if res.n == 0:
             raise ResultsError(f"{res.path}: no finished step to animate")
         return _animate(res, outdir if outdir is not None else res.path.parent, max_frames, fps)
@@ -492,7 +490,7 @@ def plot_plate(results, outdir=None, loads=None, animate=False, xdmf=True):
         ``u_snapshots.png``, ``iterations.png``, then ``alpha.gif`` and ``results.xdmf`` if
         asked for.
     """
-    with _open_plate(results) as res:
+    with PlateResults(results) as res:
         if res.n == 0:
             raise ResultsError(f"{res.path}: no finished step to plot")
         outdir = Path(outdir) if outdir is not None else res.path.parent
@@ -512,7 +510,7 @@ def plot_plate(results, outdir=None, loads=None, animate=False, xdmf=True):
     if xdmf:
         from thinfilm.xdmf import write_xdmf
 
-        paths.append(write_xdmf(results if not isinstance(results, PlateResults) else results.path, outdir))
+        paths.append(write_xdmf(results, outdir))
     return paths
 
 

@@ -18,10 +18,16 @@ film's x along VTK's y; the one-layer 3D mesh puts the film in the x-y plane wit
 Nodes run x fastest, which is the flattening of :mod:`thinfilm.grid`, so each field row is
 used as stored.
 
-Open ``results.xdmf`` in ParaView with the "Xdmf3 Reader" (or "Xdmf3 Reader (Top Level
-Partition)"); the time slider then steps through the load. The file describes the steps
-finished when it was written: a run that goes on, or backtracks, needs it rewritten
-(``thinfilm plot`` and the end of ``thinfilm run`` do that).
+Open ``results.xdmf`` in ParaView with the **"XDMF Reader"** (VTK's ``vtkXdmfReader``); the
+time slider then steps through the load. With VTK 9.7's reader, every step's ``alpha`` and
+``u``, its load and the node coordinates come back exactly (``tests/test_inspect.py``, when
+the ``vtk`` package is installed). ParaView's "Xdmf3 Reader S/T" are not recommended for this
+file: ``vtkXdmf3DataSet::XdmfToVTKAttributes`` sizes an attribute's array from its dimensions
+*before* reading it, and a HyperSlab item has none until it is read, so those readers are
+expected to give empty arrays (found by reading their source; not run here).
+
+The file describes the steps finished when it was written: a run that goes on, or
+backtracks, needs it rewritten (``thinfilm plot`` and the end of ``thinfilm run`` do that).
 """
 
 from __future__ import annotations
