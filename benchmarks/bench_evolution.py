@@ -42,7 +42,7 @@ fourth-order operator grows like dx^-4), the run is repeated with the tolerance 
 above the floor (``u_rtol_min = u_rtol_max``; with the default tol = 1e-4 the engine's
 ``clip(1e-2 change, 1e-10, 1e-6)`` is 1e-6 at every iteration anyway), and the row says so.
 
-Accepted search trials are counted as they happen (by wrapping the engine's search): the
+Accepted search trials are counted as they happen (``engine.work["trials_accepted"]``): the
 step whose search finds a crack is usually undone by the backtrack that crack triggers,
 and its StepRecord, with its ``trials_accepted``, is dropped.
 
@@ -187,7 +187,7 @@ def evolve_scene(scene, u_rtol=None, progress=False):
             print("PROGRESS " + json.dumps({
                 "step": record.index, "t": record.t, "elapsed": time.perf_counter() - start,
                 "work": dict(engine.work), "cracks": [round(float(v), 4) for v in crack_positions(x, line)],
-                "trials_accepted": timings["trials_accepted"]}), flush=True)
+                "trials_accepted": engine.work["trials_accepted"]}), flush=True)
 
     start, start_cpu = time.perf_counter(), time.process_time()
     grid = build_grid(scene.domain)
@@ -197,18 +197,6 @@ def evolve_scene(scene, u_rtol=None, progress=False):
         altmin = dataclasses.replace(engine.altmin, u_rtol_min=u_rtol, u_rtol_max=u_rtol)
         engine = Engine(model, altmin, engine.backtrack, engine.search)
     timings["engine"] = engine
-    # Accepted trials, counted when they happen: a step whose search succeeds is often undone by
-    # the backtrack its new crack triggers, and its StepRecord (trials_accepted) is dropped.
-    timings["trials_accepted"] = 0
-    search = engine._search
-
-    def counted_search(state, lower, record, step):
-        before = record.trials_accepted
-        best = search(state, lower, record, step)
-        timings["trials_accepted"] += record.trials_accepted - before
-        return best
-
-    engine._search = counted_search
     t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
     try:
         records, states = engine.run(t_values, on_step=on_step)
@@ -281,11 +269,11 @@ def worker(spec):
         c = crack_positions(x, line)
         cracks.append([round(float(v), 6) for v in c])
         through.append(through_width(grid, s.alpha, c, scene.model.eta))
-    events = crack_events(grid, t, np.array([s.alpha for s in states]))
+    events = crack_events(t, [np.array(c) for c in cracks])
     row.update(
         wall=timings["wall"], cpu=timings["cpu"], time_u=timings["time_u"], time_alpha=timings["time_alpha"],
         steps_computed=timings["steps_computed"], work=dict(engine.work),
-        trials_accepted=int(timings["trials_accepted"]),
+        trials_accepted=int(engine.work["trials_accepted"]),
         trials_accepted_kept_steps=int(sum(r.trials_accepted for r in records)),
         extrapolations_rejected=int(sum(r.extrapolations_rejected for r in records)),
         t=t.tolist(), elastic=[r.elastic for r in records], surface=[r.surface for r in records],
@@ -350,9 +338,7 @@ def exact_for(case, lam, toughness, t):
     x0, x1, _ = GEOMETRY[case]
     key = (case, tuple(np.round(t, 12)))
     if key not in _EXACT:
-        data = {"parameters": {"lam": lam, "toughness": toughness}, "grid": {"x": np.array([x0, x1])},
-                "steps": {"t": np.asarray(t, float)}}
-        _EXACT[key] = exact_counterpart(data)
+        _EXACT[key] = exact_counterpart(x0, x1, lam, toughness, t)
     return _EXACT[key]
 
 

@@ -35,19 +35,18 @@ def _run(args):
     outdir = Path(args.out) if args.out else default_outdir(args.scene)
     if outdir.exists() and not outdir.is_dir():
         raise SceneError(args.scene, None, f"output path {outdir} exists and is not a directory (use --out DIR)")
-    resume = getattr(args, "resume", False)
-    if resume and getattr(args, "force", False):
+    if args.resume and args.force:
         raise SceneError(args.scene, None, "--resume and --force exclude each other")
-    if resume and scene.kind != "plate":
+    if args.resume and scene.kind != "plate":
         raise SceneError(args.scene, None, f'--resume: only plate runs can be resumed (this scene is "{scene.kind}")')
     existing = [p.name for p in (outdir / "results.h5", outdir / "summary.json") if p.exists()]
-    if existing and not resume and not getattr(args, "force", False):
+    if existing and not args.resume and not args.force:
         raise SceneError(args.scene, None, f"output directory {outdir} already holds {', '.join(existing)};"
                          " use --resume to continue the run or --force to overwrite it")
-    args.resume = resume and (outdir / "results.h5").exists()
 
     if scene.kind == "plate":
-        return _run_plate(scene, outdir, args)
+        # --resume without results yet starts the run from its beginning.
+        return _run_plate(scene, outdir, args, resume=args.resume and (outdir / "results.h5").exists())
 
     # Imported here so that argument and scene errors are reported without loading the
     # numerical stack.
@@ -68,7 +67,7 @@ def _run(args):
     return 0
 
 
-def _run_plate(scene, outdir, args):
+def _run_plate(scene, outdir, args, resume=False):
     from thinfilm.evolution import EvolutionError
     from thinfilm.io import ResumeError
     from thinfilm.run import RunInterrupted, run_plate
@@ -76,7 +75,7 @@ def _run_plate(scene, outdir, args):
     try:
         with tqdm(total=scene.load.steps + 1, desc=Path(args.scene).stem, unit="step",
                   disable=True if args.quiet else None, file=sys.stderr) as bar:
-            out = run_plate(scene, outdir, progress=bar.update, resume=getattr(args, "resume", False))
+            out = run_plate(scene, outdir, progress=bar.update, resume=resume)
     except ResumeError as err:
         raise SceneError(args.scene, None, str(err)) from None
     except RunInterrupted as err:
@@ -220,6 +219,9 @@ def main(argv=None):
     except SceneError as err:
         print(f"thinfilm: error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except KeyboardInterrupt:  # outside an evolution (which saves its steps itself): nothing to save
+        print("thinfilm: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -17,43 +17,37 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from onedim.evolution import Evolution  # noqa: E402
-from thinfilm.cracks import crack_positions  # noqa: E402
-from thinfilm.io import read_plate  # noqa: E402
+from thinfilm.results import PlateResults  # noqa: E402
 
 
-def exact_counterpart(data, cells=2000):
-    """The exact evolution for a plate results file's parameters, sampled at its loads.
+def exact_counterpart(x0, x1, lam, toughness, t, cells=2000):
+    """The exact evolution of the film ``(x0, x1)`` under pure bending, sampled at the loads ``t``.
+
+    Parameters
+    ----------
+    x0, x1 : float
+        Ends of the film (units of L).
+    lam, toughness : float
+        ``lambda`` and ``G/a``.
+    t : ndarray, shape (n,)
+        Loads, increasing.
+    cells : int, optional
+        Grid of the exact solver (events are refined off it).
 
     Returns
     -------
     dict
-        ``t`` (the run's loads), ``total`` (exact total energy per unit width),
+        ``t`` (the loads), ``total`` (exact total energy per unit width),
         ``events`` (list of onedim Event), ``offset`` (the film's centre: exact positions
         are shifted by it).
     """
-    p, grid = data["parameters"], data["grid"]
-    x0, x1 = float(grid["x"][0]), float(grid["x"][-1])
-    t = data["steps"]["t"]
-    evolution = Evolution(x1 - x0, p["lam"], p["toughness"], cells, float(t[-1]))
+    t = np.asarray(t, dtype=float)
+    evolution = Evolution(x1 - x0, lam, toughness, cells, float(t[-1]))
     total = []
     for ti in t:
         evolution.advance_to(float(ti))
         total.append(evolution.energies(float(ti))[2])
     return {"t": t, "total": np.array(total), "events": evolution.events, "offset": 0.5 * (x0 + x1)}
-
-
-def regularized_cracks(data):
-    """Crack positions along ``y = 0`` at each step of a plate run (list of arrays)."""
-    grid = data["grid"]
-    x = grid["x"]
-    out = []
-    for alpha in data["alpha"]:
-        if grid["dim"] == 2:
-            line = alpha.reshape(len(grid["y"]), len(x))[int(np.argmin(np.abs(grid["y"])))]
-        else:
-            line = alpha
-        out.append(crack_positions(x, line))
-    return out
 
 
 def compare(results, outdir=None):
@@ -73,13 +67,13 @@ def compare(results, outdir=None):
     """
     results = Path(results)
     outdir = Path(outdir) if outdir is not None else results.parent
-    data = read_plate(results)
-    grid = data["grid"]
-    width = float(grid["y"][-1] - grid["y"][0]) if grid["dim"] == 2 else 1.0
-    exact = exact_counterpart(data)
+    with PlateResults(results) as res:
+        x, width = res.x, res.width
+        exact = exact_counterpart(float(x[0]), float(x[-1]), res.parameters["lam"], res.parameters["toughness"],
+                                  res.t)
+        total = res.steps["total"] / width
+        cracks = res.cracks()
     t = exact["t"]
-    total = data["steps"]["total"] / width
-    cracks = regularized_cracks(data)
 
     fig, (ax_e, ax_c) = plt.subplots(1, 2, figsize=(11.0, 4.2), layout="constrained")
     ax_e.plot(t, exact["total"], "--", color="tab:blue", lw=2, label="exact 1D (global minimizer)")
@@ -94,7 +88,7 @@ def compare(results, outdir=None):
     for ti, c in zip(t, cracks):
         ax_c.plot(np.full(c.shape, ti), c, "|", color="black", ms=5)
     ax_c.set_xlim(0, t_max)
-    ax_c.set_ylim(grid["x"][0], grid["x"][-1])
+    ax_c.set_ylim(x[0], x[-1])
     ax_c.set_xlabel("load t")
     ax_c.set_ylabel("crack position x")
     ax_c.set_title("cracks: exact (blue bands), regularized (black)")

@@ -8,9 +8,10 @@ the finite-element module later):
   solve), then ``alpha = argmin E(u, .)`` under ``alpha_{i-1} <= alpha <= 1`` (a
   bound-constrained QP, :func:`thinfilm.damage.solve_box_qp`), until the largest change of
   alpha is below ``tol``. Each half-step minimizes the energy exactly, so the energy never
-  increases. An over-relaxed damage update (:class:`AltMinOptions`) replaces the plain one only if, after the next u-solve, the energy is below that of the
-  plain update; otherwise the plain update is restored, so the energy of the accepted states
-  still decreases monotonically;
+  increases. An over-relaxed damage update (:class:`AltMinOptions`) replaces the plain one
+  only if, after the next u-solve, the energy is below that of the plain update; otherwise
+  the plain update is restored, so the energy of the accepted states still decreases
+  monotonically;
 * backtracking (dissertation Alg. 3.1): once step ``n`` has converged, a state
   ``(u_n, alpha_n)`` scaled to ``(t_k/t_n) u_n`` is admissible at every earlier step ``k``
   (alpha only grows), so if ``P_k + S_k - ((t_k/t_n)^2 P_n + S_n) >= delta`` the evolution
@@ -265,8 +266,9 @@ class Engine:
         # and unchanged alpha the next u is a multiple of it, no solve needed.
         self._u_cache = None
         #: Work done by the whole evolution, including steps later undone by backtracking and
-        #: rejected trials: alternate-minimization iterations, linear solves, backtracks.
-        self.work = {"iterations": 0, "u_solves": 0, "backtracks": 0, "trials": 0}
+        #: rejected trials: alternate-minimization iterations, linear solves, backtracks,
+        #: nucleation trials tried and accepted.
+        self.work = {"iterations": 0, "u_solves": 0, "backtracks": 0, "trials": 0, "trials_accepted": 0}
 
     # -- the two half-steps ---------------------------------------------------------------
     def _solve_u(self, alpha, t, u0, rtol, record):
@@ -410,6 +412,9 @@ class Engine:
     def _search(self, state, lower, record, step):
         """Nucleation search from a converged state; returns the best state found."""
         best = state
+        # The u-solve cache must describe the kept state's u (solved at the damage before its
+        # last alpha-solve), not the last trial's: remember it with the state it belongs to.
+        best_cache = self._u_cache
         for _ in range(self.search.rounds):
             improved = False
             for trial_alpha in self.model.trial_states(best.u, best.alpha, best.t):
@@ -423,16 +428,23 @@ class Engine:
                 record.time_u += trial_record.time_u
                 record.time_alpha += trial_record.time_alpha
                 if trial.total < best.total - self.search.delta:
-                    best, improved = trial, True
+                    best, improved, best_cache = trial, True, self._u_cache
                     record.trials_accepted += 1
+                    self.work["trials_accepted"] += 1
                     record.iterations += trial_record.iterations
             if not improved:
                 break
-        # The cached u belongs to the last trial: make it that of the kept state.
-        self._u_cache = (best.u, best.alpha.copy(), best.t)
+        self._u_cache = best_cache
         return best
 
     # -- the evolution --------------------------------------------------------------------
+    @staticmethod
+    def _warm_start(state, t_values, i):
+        """First guess of u at step ``i`` from a converged state: its u scaled to the new load."""
+        if i < len(t_values) and state.t != 0:
+            return state.u * (t_values[i] / state.t)
+        return state.u
+
     def run(self, t_values, alpha_initial=None, on_step: Callable[[StepRecord, State], None] | None = None,
             progress: Callable[[int], None] = lambda n: None, history: Sequence[State] = ()):
         """March over the loads ``t_values`` (increasing, ``t_values[0]`` usually 0).
@@ -451,8 +463,10 @@ class Engine:
             after a backtrack).
         history : sequence of State, optional
             Steps ``0 .. k`` already finished (a resumed run): the evolution continues at
-            step ``k + 1`` exactly as if it had not stopped. Each state needs ``t``,
-            ``alpha`` and the energies, and the last one also ``u``.
+            step ``k + 1`` from them as it would have without the stop, except that its
+            first u-solve is never skipped (the damage the last ``u`` was solved at is not
+            kept). Each state needs ``t``, ``alpha`` and the energies, and the last one also
+            ``u``.
 
         Returns
         -------
@@ -469,14 +483,7 @@ class Engine:
         i = len(states)
         alpha_start, u_start = alpha_prev, None
         if states:
-            # Continue as the uninterrupted run would: from the last state, u scaled to the
-            # next load, and the u of the last state remembered (an unchanged alpha under a
-            # proportional load then needs no solve, as it did not before the stop).
-            last = states[-1]
-            alpha_start = last.alpha
-            if i < len(t_values):
-                u_start = last.u * (t_values[i] / last.t) if last.t != 0 else last.u
-            self._u_cache = (last.u, last.alpha.copy(), last.t)
+            alpha_start, u_start = states[-1].alpha, self._warm_start(states[-1], t_values, i)
         while i < len(t_values):
             t = float(t_values[i])
             lower = alpha_prev if i == 0 else states[i - 1].alpha
@@ -512,8 +519,6 @@ class Engine:
             if on_step is not None:
                 on_step(record, state)
             progress(1)
-            alpha_start = state.alpha
-            nxt = i + 1
-            u_start = state.u * (t_values[nxt] / t) if nxt < len(t_values) and t != 0 else state.u
-            i = nxt
+            alpha_start, u_start = state.alpha, self._warm_start(state, t_values, i + 1)
+            i += 1
         return records, states

@@ -164,9 +164,35 @@ def read_track(results, track="refined"):
 
 
 # -- plate runs ---------------------------------------------------------------------------
+def finished_steps(f):
+    """Number of finished steps ``n`` of an open results file.
+
+    A plate run appends each step to every dataset of ``/steps`` and ``/fields`` in turn and
+    flushes, so a run killed mid-way can leave datasets of lengths ``k`` and ``k + 1``.
+
+    Parameters
+    ----------
+    f : h5py.File
+
+    Returns
+    -------
+    int
+        The shortest length among the per-step datasets (``/steps/*`` and, for plate runs,
+        ``/fields/*``): rows ``0 .. n-1`` are complete in every dataset.
+    """
+    lengths = [ds.shape[0] for ds in f["steps"].values() if isinstance(ds, h5py.Dataset) and ds.ndim >= 1]
+    if "fields" in f:
+        lengths += [ds.shape[0] for ds in f["fields"].values() if isinstance(ds, h5py.Dataset)]
+    return min(lengths) if lengths else 0
+
+
 #: Per-step scalar records of a plate run, in /steps (names of thinfilm.evolution.StepRecord).
 STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_solves_skipped",
                "backtracks", "trials", "trials_accepted", "time_u", "time_alpha", "time_total")
+
+
+class ResumeError(RuntimeError):
+    """A results file that cannot be continued; the message is one line for the user."""
 
 
 class PlateResultsWriter:
@@ -213,19 +239,17 @@ class PlateResultsWriter:
             "numba_version": numba.__version__, "h5py_version": h5py.__version__,
             "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         })
-        m = scene.model
+        m, load = scene.model, scene.load
         f.create_group("parameters").attrs.update({
             "at": m.at, "nu": m.nu, "lam": m.lam, "winkler": m.winkler, "toughness": m.toughness,
-            "eta": m.eta, "k_res": m.k_res, "t_max": scene.load.t_max, "steps": scene.load.steps,
+            "eta": m.eta, "k_res": m.k_res, "t_max": load.t_max, "steps": load.steps, "load": load.kind,
+            **({"radius": load.radius} if load.radius else {}), **({"field_file": load.file} if load.file else {}),
         })
         if scene.material is not None:
             mat = scene.material
             f.create_group("material").attrs.update({
                 "E": mat.E, "nu": mat.nu, "h": mat.h, "Gc": mat.Gc, "bond_stiffness": mat.bond_stiffness,
                 "L": mat.L, **mat.groups()})
-        load = scene.load
-        f["parameters"].attrs.update({"load": load.kind, **({"radius": load.radius} if load.radius else {}),
-                                      **({"field_file": load.file} if load.file else {})})
         g = f.create_group("grid")
         g.attrs.update({"dim": grid.dim, "x0": grid.x0, "x1": grid.x1, "nx": grid.nx})
         g["x"] = np.asarray(grid.x)
@@ -265,7 +289,7 @@ class PlateResultsWriter:
     def trim(self):
         """Cut every dataset to the finished steps (after a write was interrupted); returns their number."""
         f = self.file
-        n = min([len(f["steps"][name]) for name in STEP_FIELDS] + [len(f["fields"][name]) for name in ("u", "alpha")])
+        n = finished_steps(f)
         for name in STEP_FIELDS:
             f["steps"][name].resize((n,))
         for name in ("u", "alpha"):
@@ -274,85 +298,59 @@ class PlateResultsWriter:
         f.flush()
         return n
 
-    def close(self):
-        self.file.close()
+    def history(self, all_alpha=True):
+        """The finished steps, as states to resume the evolution from.
 
+        Parameters
+        ----------
+        all_alpha : bool
+            Read the damage of every finished step (backtracking may return to any of
+            them); otherwise only the last one's, the others' left as None.
 
-class ResumeError(RuntimeError):
-    """A results file that cannot be continued; the message is one line for the user."""
+        Returns
+        -------
+        list of thinfilm.evolution.State
+            One per finished step; the last one carries ``u``.
+        """
+        from thinfilm.evolution import State
 
-
-def read_history(results, all_alpha=True):
-    """The finished steps of a plate ``results.h5``, to resume the evolution from.
-
-    Parameters
-    ----------
-    results : Path
-    all_alpha : bool
-        Read the damage of every finished step (backtracking may return to any of them);
-        otherwise only the last one's, the others' left as None.
-
-    Returns
-    -------
-    list of thinfilm.evolution.State
-        One per finished step; the last one carries ``u``.
-    """
-    from thinfilm.evolution import State
-
-    with h5py.File(results, "r") as f:
-        steps = f["steps"]
-        n = min(len(steps["t"]), len(f["fields/alpha"]), len(f["fields/u"]))
-        t, elastic, surface = steps["t"][:n], steps["elastic"][:n], steps["surface"][:n]
+        f = self.file
+        n = finished_steps(f)
+        t, elastic, surface = (f["steps"][name][:n] for name in ("t", "elastic", "surface"))
         states = []
         for k in range(n):
             last = k == n - 1
             alpha = f["fields/alpha"][k] if (all_alpha or last) else None
             u = f["fields/u"][k] if last else None
             states.append(State(float(t[k]), u, alpha, float(elastic[k]), float(surface[k])))
-    return states
+        return states
+
+    def close(self):
+        self.file.close()
 
 
-def read_plate(results):
-    """Read a plate ``results.h5``: parameters, grid, per-step records and the alpha fields.
-
-    The displacement fields are not read (summaries and figures need only alpha; at 1500^2
-    nodes each field is 18 MB per step).
-
-    Returns
-    -------
-    dict
-        ``parameters`` and ``grid`` (dicts of attrs, plus ``x``/``y`` arrays), ``steps``
-        (dict of arrays), ``alpha`` (array, shape (n, n_nodes)) and ``scene`` (TOML text).
-    """
-    with h5py.File(results, "r") as f:
-        grid = {k: v.item() if hasattr(v, "item") else v for k, v in f["grid"].attrs.items()}
-        grid["x"] = f["grid/x"][()]
-        if "y" in f["grid"]:
-            grid["y"] = f["grid/y"][()]
-        return {
-            "parameters": {k: v.item() if hasattr(v, "item") else v for k, v in f["parameters"].attrs.items()},
-            "grid": grid,
-            "steps": {k: v[()] for k, v in f["steps"].items()},
-            "alpha": f["fields/alpha"][()],
-            "scene": f.attrs["scene"],
-        }
-
-
-def write_plate_summary(path, scene, data, events):
+def write_plate_summary(path, scene, results, events):
     """``summary.json`` of a plate run: the crack events and per-step energies and iterations.
 
     ``{"kind": "plate", "scene": ..., "parameters": {...},
        "events": [{"t": <load>, "cracks": [<positions along y = 0, sorted>]}, ...],
        "steps": {"t": [...], "elastic": [...], "surface": [...], "total": [...],
                  "iterations": [...]}}``
+
+    Parameters
+    ----------
+    path : Path
+    scene : thinfilm.scene.PlateScene
+    results : thinfilm.results.PlateResults
+        The run's open results (finished steps).
+    events : list of (float, ndarray)
     """
-    steps = data["steps"]
     content = {
         "kind": scene.kind,
         "scene": scene.source,
-        "parameters": data["parameters"],
+        "parameters": results.parameters,
         "events": [{"t": float(t), "cracks": [float(c) for c in cracks]} for t, cracks in events],
-        "steps": {name: steps[name].tolist() for name in ("t", "elastic", "surface", "total", "iterations")},
+        "steps": {name: results.steps[name].tolist() for name in ("t", "elastic", "surface", "total", "iterations")},
     }
     partial = _atomic_path(Path(path))
     partial.write_text(json.dumps(content, indent=1) + "\n", encoding="utf-8")

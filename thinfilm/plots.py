@@ -329,13 +329,9 @@ def _iterations(res, outdir):
 
 
 def _cracks(res, outdir):
-    from thinfilm.cracks import crack_positions
-
     path = Path(outdir) / "cracks.png"
-    rows = res.centre_rows("alpha")  # one row per step: a large run is never read whole
     fig, ax = _line_figure(6.4, 4.2)
-    for ti, line in zip(res.t, rows):
-        cracks = crack_positions(res.x, line)
+    for ti, cracks in zip(res.t, res.cracks()):  # one row per step: a large run is never read whole
         ax.plot(np.full(cracks.shape, ti), cracks, "|", color="tab:red", ms=6)
     ax.set_xlim(0.0, max(res.t_max, res.t[-1]))
     ax.set_ylim(res.x[0], res.x[-1])

@@ -2,11 +2,9 @@
 
 :mod:`thinfilm.io` writes the files; this module reads them for the commands that work from
 a file alone (``thinfilm plot``, ``thinfilm info``, the XDMF index of
-:mod:`thinfilm.xdmf`). Everything here copes with files of runs that stopped early: a plate
-run appends each step to every dataset of ``/steps`` and ``/fields`` in turn and flushes
-(:class:`thinfilm.io.PlateResultsWriter`), so a run killed mid-way leaves datasets of
-lengths ``k`` and ``k + 1``. The **finished steps** are the first ``n`` rows, ``n`` the
-shortest of those lengths; rows beyond ``n`` are an unfinished write and are ignored.
+:mod:`thinfilm.xdmf`) and for the run's own summary. Everything here copes with files of
+runs that stopped early: only the **finished steps** (:func:`thinfilm.io.finished_steps`)
+are read; rows beyond them are an unfinished write and are ignored.
 
 A path that is not a thinfilm results file raises :class:`ResultsError`, whose message is
 one line for the user (the command line prints it and exits with status 2).
@@ -20,7 +18,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from thinfilm.io import FORMAT, FORMAT_VERSION
+from thinfilm.cracks import crack_positions
+from thinfilm.io import FORMAT, FORMAT_VERSION, finished_steps
 
 #: Kinds of results files that the inspection commands know.
 KINDS = ("exact1d", "plate")
@@ -118,25 +117,6 @@ def open_results(path):
     return f
 
 
-def finished_steps(f):
-    """Number of finished steps ``n`` of an open results file.
-
-    Parameters
-    ----------
-    f : h5py.File
-
-    Returns
-    -------
-    int
-        The shortest length among the per-step datasets (``/steps/*`` and, for plate runs,
-        ``/fields/*``): rows ``0 .. n-1`` are complete in every dataset.
-    """
-    lengths = [ds.shape[0] for ds in f["steps"].values() if isinstance(ds, h5py.Dataset) and ds.ndim >= 1]
-    if "fields" in f:
-        lengths += [ds.shape[0] for ds in f["fields"].values() if isinstance(ds, h5py.Dataset)]
-    return min(lengths) if lengths else 0
-
-
 class PlateResults:
     """A plate ``results.h5`` opened for reading, cut to its finished steps.
 
@@ -232,6 +212,22 @@ class PlateResults:
         j = int(np.argmin(np.abs(self.y)))
         width = len(self.x)
         return ds[: self.n, j * width:(j + 1) * width]
+
+    def cracks(self):
+        """Crack positions along ``y = 0`` at every finished step.
+
+        Returns
+        -------
+        list of ndarray
+            Sorted positions (units of L) of the local maxima of alpha above 0.9
+            (:func:`thinfilm.cracks.crack_positions`), one array per step.
+        """
+        return [crack_positions(self.x, row) for row in self.centre_rows("alpha")]
+
+    @property
+    def width(self):
+        """Width ``y1 - y0`` of a 2D strip (units of L); 1 in 1D, so energies per unit width divide by it."""
+        return float(self.y[-1] - self.y[0]) if self.dim == 2 else 1.0
 
     def close(self):
         self.file.close()

@@ -10,17 +10,19 @@ from __future__ import annotations
 
 import logging
 import math
+import signal
+import threading
 from pathlib import Path
 
 import numpy as np
 
 from thinfilm import loads
-from thinfilm.cracks import centre_line, crack_positions
 from thinfilm.evolution import AltMinOptions, BacktrackOptions, Engine, SearchOptions
 from thinfilm.grid import Grid
-from thinfilm.io import PlateResultsWriter, read_history, read_plate, write_plate_summary
+from thinfilm.io import PlateResultsWriter, write_plate_summary
 from thinfilm.linsolve import make_solver
 from thinfilm.model import PlateModel
+from thinfilm.results import PlateResults
 
 log = logging.getLogger("thinfilm")
 
@@ -113,28 +115,26 @@ def make_engine(scene, model):
     )
 
 
-def crack_events(grid, t, alpha):
-    """Crack events of a run: the steps where the crack set along ``y = 0`` changes.
+def crack_events(t, cracks):
+    """Crack events of a run: the steps where the number of cracks changes.
 
     Parameters
     ----------
-    grid : Grid
     t : ndarray, shape (n,)
-    alpha : ndarray, shape (n, n_nodes)
+        Loads of the steps.
+    cracks : sequence of ndarray
+        Crack positions at each step (:meth:`thinfilm.results.PlateResults.cracks`).
 
     Returns
     -------
     list of (float, ndarray)
-        ``(t, crack positions)`` at the first step and every step where the number of cracks
-        (local maxima of alpha above 0.9) changes.
+        ``(t, crack positions)`` at every step where the number of cracks changes.
     """
     events, last = [], 0
-    for ti, a in zip(t, alpha):
-        x, line = centre_line(grid, a)
-        cracks = crack_positions(x, line)
-        if len(cracks) != last:
-            events.append((float(ti), cracks))
-            last = len(cracks)
+    for ti, positions in zip(t, cracks):
+        if len(positions) != last:
+            events.append((float(ti), positions))
+            last = len(positions)
     return events
 
 
@@ -146,14 +146,44 @@ class RunInterrupted(Exception):
         self.results, self.steps_done = results, steps_done
 
 
+class _StopOnInterrupt:
+    """Ctrl-C during an evolution: finish and save the current step, then stop.
+
+    A ``KeyboardInterrupt`` raised wherever the signal lands can be lost (inside a weakref
+    callback or a destructor Python prints and ignores it: seen in about one interrupt in
+    three), so the first SIGINT only sets :attr:`requested`, which the step callback turns
+    into a clean stop. It also restores the default handler, so a second Ctrl-C stops at
+    once (the steps already saved stay valid). Outside the main thread signals cannot be
+    handled, and nothing is changed.
+    """
+
+    def __init__(self):
+        self.requested = False
+        self._previous = None
+
+    def _handler(self, signum, frame):
+        self.requested = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handler)
+        return self
+
+    def __exit__(self, *exc):
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+
 def run_plate(scene, outdir, progress=lambda n: None, resume=False):
     """Run a plate scene and write ``results.h5``, ``summary.json`` and the figures.
 
     Every finished step is in ``results.h5`` (flushed) as soon as it is done, so a run that
     is killed leaves a valid file, and ``resume=True`` continues it from its last finished
-    step to the same results as an uninterrupted run. Ctrl-C closes the file and raises
-    :class:`RunInterrupted`; a solver failure (:class:`thinfilm.evolution.EvolutionError`)
-    propagates with the finished steps saved.
+    step to the same results as an uninterrupted run. Ctrl-C finishes and saves the current
+    step, closes the file and raises :class:`RunInterrupted` (a second Ctrl-C stops at
+    once); a solver failure (:class:`thinfilm.evolution.EvolutionError`) propagates with
+    the finished steps saved.
 
     Parameters
     ----------
@@ -181,20 +211,26 @@ def run_plate(scene, outdir, progress=lambda n: None, resume=False):
     engine = make_engine(scene, model)
     t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
     results = outdir / "results.h5"
-    history = read_history(results, all_alpha=scene.solver.backtrack != "none") if resume else []
     writer = PlateResultsWriter(results, scene, grid, resume=resume)
+    history = writer.history(all_alpha=scene.solver.backtrack != "none") if resume else []
     if history:
         log.info(f"resuming {results} after step {len(history) - 1} (t = {history[-1].t:g})")
         progress(len(history))
-    try:
-        engine.run(t_values, on_step=writer.write_step, progress=progress, history=history)
-    except KeyboardInterrupt:
-        raise RunInterrupted(results, writer.trim()) from None
-    finally:
-        writer.close()
-    data = read_plate(results)
-    events = crack_events(grid, data["steps"]["t"], data["alpha"])
-    summary = write_plate_summary(outdir / "summary.json", scene, data, events)
+    with _StopOnInterrupt() as stop:
+        def on_step(record, state):
+            writer.write_step(record, state)
+            if stop.requested:
+                raise KeyboardInterrupt
+
+        try:
+            engine.run(t_values, on_step=on_step, progress=progress, history=history)
+        except KeyboardInterrupt:
+            raise RunInterrupted(results, writer.trim()) from None
+        finally:
+            writer.close()
+    with PlateResults(results) as res:
+        events = crack_events(res.t, res.cracks())
+        summary = write_plate_summary(outdir / "summary.json", scene, res, events)
     from thinfilm.plots import plot_plate
 
     figures = plot_plate(results, outdir)

@@ -28,6 +28,8 @@ import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from onedim.fragment import lam_from_winkler, winkler_from_lam
 from thinfilm.units import Material, toughness_from_KIC
 
@@ -491,8 +493,6 @@ def _parse_load(source, load, dom):
 
 def _read_field(source, load, dom):
     """The substrate displacement of a ``"field"`` load, from ``.npz`` or HDF5, checked."""
-    import numpy as np
-
     name = load.data.get("name", "w")
     if not isinstance(name, str):
         load._fail("name", name, "must be a string (the array's name in the file)")
