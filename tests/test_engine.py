@@ -8,6 +8,7 @@ from onedim.evolution import evolve
 from onedim.partition import partition_energy
 from thinfilm.evolution import AltMinOptions, BacktrackOptions, Engine, EvolutionError, SearchOptions
 from thinfilm.grid import Grid
+from thinfilm.linsolve import LinearSolverError
 from thinfilm.model import PlateModel
 from thinfilm.cracks import crack_positions
 
@@ -126,6 +127,33 @@ def test_non_convergence_names_step_and_keeps_done_steps():
     done = []
     engine = Engine(model, AltMinOptions(tol=1e-12, max_iter=2))
     with pytest.raises(EvolutionError, match=r"step \d+ \(t = [0-9.]+\).*did not converge in 2 iterations"):
+        engine.run(np.linspace(0.0, 3.0, 31), on_step=lambda r, s: done.append(r.index))
+    assert done and done == list(range(len(done)))
+
+
+class FailsAtSolve:
+    """A linear solver that fails at its n-th solve, like a diverging CG."""
+
+    def __init__(self, n):
+        self.inner, self.left = SuperLU(), n
+
+    def update(self, K):
+        self.inner.update(K)
+
+    def solve(self, f, x0=None, rtol=None):
+        self.left -= 1
+        if self.left < 0:
+            raise LinearSolverError("did not reach rtol = 1.0e-06", residual=3e-2, iterations=500, kind="amg")
+        return self.inner.solve(f, x0, rtol)
+
+
+def test_a_failed_u_solve_names_the_step_and_keeps_the_finished_ones():
+    grid, model = film()
+    model.linear_solver = FailsAtSolve(3)
+    done = []
+    engine = Engine(model, AltMinOptions(), BacktrackOptions(kind="standard"))
+    with pytest.raises(EvolutionError, match=r"step \d+ \(t = [0-9.]+\), alternate-minimization iteration \d+:"
+                                             r" u-solve failed: .*relative residual 3.000e-02"):
         engine.run(np.linspace(0.0, 3.0, 31), on_step=lambda r, s: done.append(r.index))
     assert done and done == list(range(len(done)))
 

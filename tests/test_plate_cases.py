@@ -85,6 +85,9 @@ steps = 10
     (PLATE + "[solver]\nsearch = 1\n", "solver.search = 1: must be true or false"),
     (PLATE + "[solver]\nserach = true\n", "solver.serach: unknown key; did you mean 'search'?"),
     (PLATE.replace('[load]', '[load]\nkind = "twist"'), 'load.kind = "twist": must be one of "bending"'),
+    (PLATE + "[output]\nsnapshots = [0.5, 4.0]\n",
+     "output.snapshots = [0.5, 4.0]: must be a list of 1 to 12 loads in [0, load.t_max = 1]"),
+    (PLATE + "[output]\nsnapshot = [0.5]\n", "output.snapshot: unknown key; did you mean 'snapshots'?"),
 ])
 def test_bad_plate_input(tmp_path, capsys, text, message):
     scene = tmp_path / "bad.toml"

@@ -57,6 +57,12 @@ def cantilever(grid: Grid) -> Load:
     return Load(lambda t: t * w1, True, clamped=("x0",))
 
 
+def contact_radius(radius, t):
+    """Radius ``r_c = R sqrt(t (2 - t))`` of the disk where a sphere of radius ``R`` whose
+    centre is at height ``R (1 - t)`` touches the film (units of L; ``t`` in [0, 1])."""
+    return radius * np.sqrt(t * (2.0 - t))
+
+
 def indenter_displacement(x, y, radius, t):
     """The substrate under a sphere of radius ``R`` pressed to depth ``R t``.
 
@@ -76,7 +82,7 @@ def indenter_displacement(x, y, radius, t):
         continuous at the contact radius and ``-R t`` at the centre.
     """
     r2 = np.asarray(x) ** 2 + np.asarray(y) ** 2
-    contact = r2 < radius**2 * t * (2.0 - t)
+    contact = r2 < contact_radius(radius, t) ** 2
     out = np.zeros(np.shape(r2))
     out[contact] = radius * (1.0 - t) - np.sqrt(radius**2 - r2[contact])
     return out

@@ -472,7 +472,8 @@ def plot_plate(results, outdir=None, loads=None, animate=False, xdmf=True):
     outdir : str or Path, optional
         Where to write; defaults to the file's directory.
     loads : sequence of float, optional
-        Loads of the snapshot figures (default: 5 spread over the finished steps).
+        Loads of the snapshot figures (default: the scene's ``[output] snapshots``, stored
+        in ``/parameters``, else 5 spread over the finished steps).
     animate : bool, optional
         Also write ``alpha.gif``.
     xdmf : bool, optional
@@ -491,6 +492,8 @@ def plot_plate(results, outdir=None, loads=None, animate=False, xdmf=True):
             raise ResultsError(f"{res.path}: no finished step to plot")
         outdir = Path(outdir) if outdir is not None else res.path.parent
         outdir.mkdir(parents=True, exist_ok=True)
+        if loads is None and "snapshots" in res.parameters:
+            loads = [float(v) for v in np.atleast_1d(res.parameters["snapshots"])]
         last = res.n - 1
         paths = [
             _energies(res, outdir),

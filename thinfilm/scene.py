@@ -364,10 +364,26 @@ class PlateScene:
     source: str
     kind: str = "plate"
     material: Material | None = None
+    #: Loads of the snapshot figures (``[output] snapshots``); None: 5 spread over the run.
+    snapshots: tuple | None = None
+
+
+def _parse_snapshots(source, data, t_max):
+    """``[output] snapshots``: the loads at which the run draws alpha and u (in [0, t_max])."""
+    output = _Table(source, "output", data, ("snapshots",))
+    if not output.has("snapshots"):
+        return None
+    value = output.data["snapshots"]
+    ok = (isinstance(value, list) and 1 <= len(value) <= 12
+          and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and 0 <= v <= t_max
+                  for v in value))
+    if not ok:
+        output._fail("snapshots", value, f"must be a list of 1 to 12 loads in [0, load.t_max = {t_max:g}]")
+    return tuple(float(v) for v in value)
 
 
 def _parse_plate(source, data, text):
-    top = _Table(source, "scene", data, ("model", "domain", "load", "solver", "material"))
+    top = _Table(source, "scene", data, ("model", "domain", "load", "solver", "material", "output"))
     for name in ("model", "domain", "load"):
         if not top.has(name):
             raise SceneError(source, name, f"missing table [{name}] (required)")
@@ -440,8 +456,9 @@ def _parse_plate(source, data, text):
         search_delta=(solver.number("search_delta", minimum=0, exclusive=False)
                       if solver.has("search_delta") else 1e-3 * params.toughness),
     )
+    snapshots = _parse_snapshots(source, data.get("output", {}), plate_load.t_max)
     return PlateScene(model=params, domain=dom, load=plate_load, solver=options, text=text, source=str(source),
-                      material=material)
+                      material=material, snapshots=snapshots)
 
 
 _MATERIAL_KEYS = ("E", "nu", "h", "Gc", "K_IC", "bond_stiffness", "L")
