@@ -241,9 +241,12 @@ class PlateResults:
 
 # -- thinfilm info ------------------------------------------------------------------------
 def _fmt(value):
-    """A parameter value for one line: floats with 6 significant digits, the rest as is."""
+    """A parameter value for one line: floats with 6 significant digits, arrays as lists of
+    them, the rest as is."""
     if isinstance(value, float):
         return f"{value:.6g}"
+    if isinstance(value, np.ndarray):
+        return "[" + ", ".join(_fmt(v) for v in value.tolist()) + "]"
     return str(value)
 
 
