@@ -213,7 +213,9 @@ def strength_limit(scene):
     zero = np.zeros(model.n_alpha)
     u = model.solve_u(zero, 1.0, None, 1e-3)
     e = model.plate.bending_density(u)
-    ratio = float(np.max(e / model.damage._linear))
+    _, b = model.damage_problem(u, 1.0)
+    linear = e - b  # the load-independent part of b
+    ratio = float(np.max(e[linear > 0] / linear[linear > 0])) if np.any(linear > 0) else 0.0
     return 1.0 / math.sqrt(ratio) if ratio > 0 else math.inf
 
 

@@ -244,7 +244,7 @@ class PlateResultsWriter:
             "at": m.at, "nu": m.nu, "lam": m.lam, "winkler": m.winkler, "toughness": m.toughness,
             "eta": m.eta, "k_res": m.k_res, "t_max": load.t_max, "steps": load.steps, "load": load.kind,
             **({"radius": load.radius} if load.radius else {}), **({"field_file": load.file} if load.file else {}),
-            **({"snapshots": np.asarray(scene.snapshots)} if getattr(scene, "snapshots", None) else {}),
+            **({"snapshots": scene.snapshots} if scene.snapshots else {}),
         })
         if scene.material is not None:
             mat = scene.material
@@ -349,7 +349,7 @@ def write_plate_summary(path, scene, results, events):
     content = {
         "kind": scene.kind,
         "scene": scene.source,
-        "parameters": {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in results.parameters.items()},
+        "parameters": results.parameters,
         "events": [{"t": float(t), "cracks": [float(c) for c in cracks]} for t, cracks in events],
         "steps": {name: results.steps[name].tolist() for name in ("t", "elastic", "surface", "total", "iterations")},
     }

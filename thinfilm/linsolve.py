@@ -483,7 +483,9 @@ class DirectSolver:
         u = self._backend.solve(f)
         its = 0
         res = _relres(self.K, f, u, normf) if np.all(np.isfinite(u)) else float("nan")
-        if not res <= rtol:  # also catches NaN
+        # Above rtol but at the round-off floor (backward error of a few eps): no refinement
+        # can lower the residual, which is then just the rounding of K @ u.
+        if not res <= rtol and not _at_roundoff(self.K, f, u):  # also catches NaN
             # Round-off on an ill-conditioned K: CG preconditioned by the exact factorization
             # converges in a few steps (iterative refinement that cannot diverge).
             start = u if np.all(np.isfinite(u)) else None

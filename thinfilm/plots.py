@@ -493,7 +493,7 @@ def plot_plate(results, outdir=None, loads=None, animate=False, xdmf=True):
         outdir = Path(outdir) if outdir is not None else res.path.parent
         outdir.mkdir(parents=True, exist_ok=True)
         if loads is None and "snapshots" in res.parameters:
-            loads = [float(v) for v in np.atleast_1d(res.parameters["snapshots"])]
+            loads = res.parameters["snapshots"]
         last = res.n - 1
         paths = [
             _energies(res, outdir),

@@ -30,9 +30,12 @@ class ResultsError(ValueError):
 
 
 def _scalar(value):
-    """An HDF5 attribute value as a plain Python object (numpy scalars -> int/float/str)."""
+    """An HDF5 attribute value as a plain Python object (numpy scalars -> int/float/str,
+    arrays -> lists), ready for JSON and for printing."""
     if isinstance(value, bytes):
         return value.decode("utf-8", "replace")
+    if isinstance(value, np.ndarray):
+        return value.tolist()
     return value.item() if isinstance(value, np.generic) else value
 
 
@@ -241,12 +244,12 @@ class PlateResults:
 
 # -- thinfilm info ------------------------------------------------------------------------
 def _fmt(value):
-    """A parameter value for one line: floats with 6 significant digits, arrays as lists of
-    them, the rest as is."""
+    """A parameter value for one line: floats with 6 significant digits (also in lists), the
+    rest as is."""
     if isinstance(value, float):
         return f"{value:.6g}"
-    if isinstance(value, np.ndarray):
-        return "[" + ", ".join(_fmt(v) for v in value.tolist()) + "]"
+    if isinstance(value, list):
+        return "[" + ", ".join(_fmt(v) for v in value) + "]"
     return str(value)
 
 

@@ -233,5 +233,5 @@ def run_plate(scene, outdir, progress=lambda n: None, resume=False):
         summary = write_plate_summary(outdir / "summary.json", scene, res, events)
     from thinfilm.plots import plot_plate
 
-    figures = plot_plate(results, outdir, loads=scene.snapshots)
+    figures = plot_plate(results, outdir)  # with the scene's snapshot loads, stored in the file
     return {"results": results, "summary": summary, "figures": figures, "events": events}
