@@ -75,6 +75,19 @@ class FractureModel(Protocol):
         """Damage fields with one trial crack each, for the nucleation search."""
 
 
+#: Least cosine between consecutive updates of alpha for a phase of over-relaxation to count
+#: as an unstable damage mode (see ``Engine._extrapolate``).
+MODE_COSINE = 0.9
+
+
+def _cosine(a, b):
+    """Cosine of the angle between two updates of alpha (0 if either is missing or zero)."""
+    if b is None:
+        return 0.0
+    norm = float(np.linalg.norm(a) * np.linalg.norm(b))
+    return float(a @ b) / norm if norm > 0.0 else 0.0
+
+
 @dataclass(frozen=True)
 class AltMinOptions:
     """Alternate minimization.
@@ -95,10 +108,16 @@ class AltMinOptions:
         With ``acceleration = "overrelax"``: the largest over-relaxation factor (>= 1) of the
         damage growth, ``alpha <- alpha* + (omega_k - 1) max(alpha* - alpha, 0)`` with
         ``alpha*`` the plain update. ``omega_k`` starts at 1 and doubles at each
-        extrapolation in a slow, steady phase; it falls back to 1 when the phase ends, and
+        extrapolation in a slow, steady phase, up to ``omega`` while a damage mode grows
+        through its instability and up to ``omega_front`` while a crack front crosses the
+        film (see :meth:`Engine._extrapolate`); it falls back to 1 when the phase ends, and
         after a rejected extrapolation its cap is lowered to the last accepted factor until
         the phase ends (1 = plain alternate minimization). The scenes' default, 4, halves
-        the iterations of the Fig. 2.7 strip's nucleation step (README).
+        the iterations of the Fig. 2.7 strip's nucleation step on 300 x 60 to 600 x 120
+        grids (README); 8 saves a few more there but splits the first crack of the 1D
+        Fig. 2.5 film (800 cells, no search) in two.
+    omega_front : float
+        The cap of ``omega_k`` in a front-crossing phase (>= 1).
     omega_growth : float
         Growth factor of ``omega_k`` (> 1).
     u_rtol_min, u_rtol_max : float
@@ -116,6 +135,7 @@ class AltMinOptions:
     max_iter: int = 2000
     acceleration: str = "none"
     omega: float = 1.0
+    omega_front: float = 2.0
     omega_growth: float = 2.0
     u_rtol_min: float = 1e-8
     u_rtol_max: float = 1e-5
@@ -264,6 +284,8 @@ class Engine:
             raise ValueError(f"acceleration = {altmin.acceleration!r}: must be one of none, overrelax")
         if not 1.0 <= altmin.omega <= 64.0:
             raise ValueError(f"omega = {altmin.omega}: must be in [1, 64]")
+        if not altmin.omega_front >= 1.0:
+            raise ValueError(f"omega_front = {altmin.omega_front}: must be >= 1")
         if not altmin.omega_growth > 1.0:
             raise ValueError(f"omega_growth = {altmin.omega_growth}: must be > 1")
         self.model, self.altmin, self.backtrack, self.search = model, altmin, backtrack, search
@@ -328,6 +350,7 @@ class Engine:
         change = opts.tol
         changes = []
         omega, omega_cap = 1.0, opts.omega
+        direction = None  # the last plain update of alpha
         # An extrapolated alpha waiting for its u-solve: the plain update it replaced, with
         # that update's u and energy, to return to if the extrapolation does not pay.
         pending = None
@@ -359,15 +382,17 @@ class Engine:
             u = u_new
             record.energy_history.append(energy_u)
             alpha_star = self._solve_alpha(u, t, alpha, lower, record, step, iteration)
-            change = float(np.max(np.abs(alpha_star - alpha))) if alpha.size else 0.0
+            update = alpha_star - alpha
+            change = float(np.max(np.abs(update))) if alpha.size else 0.0
             changes.append(change)
+            cosine, direction = _cosine(update, direction), update
             elastic, surface = self.model.energies(u, alpha_star, t)
             record.energy_history.append(elastic + surface)
             if deep and iteration % self.backtrack.interval == 0:
                 self._deep_check(step, t, u, alpha_star, elastic, surface, history)
             if change < opts.tol:
                 return State(t, u, alpha_star, elastic, surface)
-            candidate = self._extrapolate(alpha, alpha_star, changes, omega, omega_cap)
+            candidate = self._extrapolate(alpha, alpha_star, changes, cosine, omega, omega_cap)
             if candidate is not None:
                 candidate, omega = candidate
                 candidate = np.clip(candidate, lower, 1.0)
@@ -381,16 +406,24 @@ class Engine:
         raise EvolutionError(f"step {step} (t = {t:g}): alternate minimization did not converge in"
                              f" {opts.max_iter} iterations (last change of alpha {change:.3g}, tol {opts.tol:g})")
 
-    def _extrapolate(self, alpha, alpha_star, changes, omega, omega_cap):
+    def _extrapolate(self, alpha, alpha_star, changes, cosine, omega, omega_cap):
         """The over-relaxed next alpha (before projection) and its factor, or None.
 
         Over-relaxation acts only while alternate minimization is in a slow, steady phase (the
         change of alpha shrinks by less than half per iteration and is still above
-        ``10 tol``): a damage mode growing through its instability, a crack front crossing
-        the film. There the update keeps its shape from one iteration to the next, and the
-        factor doubles (``omega_growth``) at each extrapolation up to ``omega_cap``. Only the
-        growth of damage is extrapolated, ``alpha* + (omega - 1) max(alpha* - alpha, 0)``,
-        and no node is moved more than half-way from ``alpha*`` to 1. Both limits were
+        ``10 tol``). Plain alternate minimization forms a crack in two such phases, and the
+        factor doubles (``omega_growth``) at each extrapolation up to a cap that depends on
+        the phase:
+
+        - a damage mode growing through its instability: the change grows and the update
+          keeps its shape (cosine with the last one above ``MODE_COSINE``); cap ``omega``;
+        - a crack front crossing the film (anything else): cap ``omega_front`` (2). A larger
+          factor there can land one node off the crack's place (on the Fig. 2.7 strip with
+          600 x 120 cells, cap 4 left a segment one node off that took 700 iterations to
+          creep back; cap 2 does not).
+
+        Only the growth of damage is extrapolated, ``alpha* + (omega - 1) max(alpha* - alpha,
+        0)``, and no node is moved more than half-way from ``alpha*`` to 1. Both limits were
         measured necessary: extrapolating where damage recedes left half-healed bands that
         took hundreds of iterations to settle (Fig. 2.7 strip), and letting the
         extrapolation reach 1 locked in wide fully broken bands whose energy is 4% too high
@@ -400,7 +433,9 @@ class Engine:
         steady = len(changes) >= 2 and changes[-1] > 10 * opts.tol and changes[-1] > 0.5 * changes[-2]
         if opts.acceleration != "overrelax" or not steady:
             return None
-        omega = min(opts.omega_growth * omega, omega_cap)
+        unstable_mode = changes[-1] > changes[-2] and cosine > MODE_COSINE
+        cap = omega_cap if unstable_mode else min(omega_cap, opts.omega_front)
+        omega = min(opts.omega_growth * omega, cap)
         candidate = alpha_star + (omega - 1.0) * np.maximum(alpha_star - alpha, 0.0)
         return np.minimum(candidate, 0.5 * (1.0 + alpha_star)), omega
 
@@ -455,7 +490,8 @@ class Engine:
         return state.u
 
     def run(self, t_values, alpha_initial=None, on_step: Callable[[StepRecord, State], None] | None = None,
-            progress: Callable[[int], None] = lambda n: None, history: Sequence[State] = ()):
+            progress: Callable[[int], None] = lambda n: None, history: Sequence[State] = (),
+            guess: Callable[[float], np.ndarray | None] | None = None):
         """March over the loads ``t_values`` (increasing, ``t_values[0]`` usually 0).
 
         Parameters
@@ -476,6 +512,12 @@ class Engine:
             first u-solve is never skipped (the damage the last ``u`` was solved at is not
             kept). Each state needs ``t``, ``alpha`` and the energies, and the last one also
             ``u``.
+        guess : callable, optional
+            ``guess(t)``: a damage field (shape ``(n_alpha,)``) to start step ``t`` from, or
+            None (grid sequencing, :mod:`thinfilm.sequencing`). Alternate minimization then
+            starts from ``max(alpha_{i-1}, guess(t))``; irreversibility stays against
+            ``alpha_{i-1}``. Not used for a step restarted by a backtrack, which starts from
+            the state that triggered it.
 
         Returns
         -------
@@ -490,6 +532,7 @@ class Engine:
         backtracks_into: dict[int, int] = {}  # step -> backtracks that restarted it
         total_backtracks = 0
         i = len(states)
+        restarted = False  # True while step i restarts from a backtrack
         alpha_start, u_start = alpha_prev, None
         if states:
             alpha_start, u_start = states[-1].alpha, self._warm_start(states[-1], t_values, i)
@@ -498,6 +541,10 @@ class Engine:
             lower = alpha_prev if i == 0 else states[i - 1].alpha
             record = StepRecord(i, t, backtracks=backtracks_into.get(i, 0))
             started = time.perf_counter()
+            if guess is not None and not restarted:
+                start = guess(t)
+                if start is not None:
+                    alpha_start = np.maximum(alpha_start, start)
             try:
                 state = self.alternate_minimization(t, alpha_start, lower, u_start, record, i,
                                                     history=states[:i])
@@ -519,7 +566,7 @@ class Engine:
                 del states[k:], records[k:]
                 alpha_start = back.alpha
                 u_start = back.u * (t_values[k] / back.t_from)
-                i = k
+                i, restarted = k, True
                 continue
             record.time_total = time.perf_counter() - started
             record.elastic, record.surface, record.total = state.elastic, state.surface, state.total
@@ -529,5 +576,5 @@ class Engine:
                 on_step(record, state)
             progress(1)
             alpha_start, u_start = state.alpha, self._warm_start(state, t_values, i + 1)
-            i += 1
+            i, restarted = i + 1, False
         return records, states

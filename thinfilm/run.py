@@ -23,6 +23,7 @@ from thinfilm.io import PlateResultsWriter, write_plate_summary
 from thinfilm.linsolve import make_solver
 from thinfilm.model import PlateModel
 from thinfilm.results import PlateResults
+from thinfilm.sequencing import CoarseDamage
 
 log = logging.getLogger("thinfilm")
 
@@ -210,6 +211,11 @@ def run_plate(scene, outdir, progress=lambda n: None, resume=False):
     model = make_model(scene, grid)
     engine = make_engine(scene, model)
     t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
+    guess = None
+    if scene.solver.coarse is not None:
+        guess = CoarseDamage(scene.solver.coarse, grid)
+        log.info(f"grid sequencing: each step starts from the damage of {scene.solver.coarse}"
+                 f" ({guess.t.size} steps) at the same load")
     results = outdir / "results.h5"
     writer = PlateResultsWriter(results, scene, grid, resume=resume)
     history = writer.history(all_alpha=scene.solver.backtrack != "none") if resume else []
@@ -223,7 +229,7 @@ def run_plate(scene, outdir, progress=lambda n: None, resume=False):
                 raise KeyboardInterrupt
 
         try:
-            engine.run(t_values, on_step=on_step, progress=progress, history=history)
+            engine.run(t_values, on_step=on_step, progress=progress, history=history, guess=guess)
         except KeyboardInterrupt:
             raise RunInterrupted(results, writer.trim()) from None
         finally:

@@ -350,6 +350,9 @@ class SolverOptions:
     backtrack_scope: int = 0
     search: bool = False
     search_delta: float = 0.0
+    #: ``results.h5`` of a coarser run of the same model whose damage starts each step
+    #: (grid sequencing, :mod:`thinfilm.sequencing`); None: start from the previous step.
+    coarse: str | None = None
 
 
 @dataclass(frozen=True)
@@ -393,7 +396,7 @@ def _parse_plate(source, data, text):
     load = _Table(source, "load", data["load"], ("kind", "t_max", "steps", "radius", "file", "name"))
     solver = _Table(source, "solver", data.get("solver", {}),
                     ("linear", "tol", "max_iter", "acceleration", "omega", "backtrack", "backtrack_delta", "backtrack_interval",
-                     "backtrack_direction", "backtrack_scope", "search", "search_delta"))
+                     "backtrack_direction", "backtrack_scope", "search", "search_delta", "coarse"))
 
     x = domain.interval("x")
     y = domain.interval("y", required=False)
@@ -455,10 +458,41 @@ def _parse_plate(source, data, text):
         search=solver.boolean("search", default=d.search),
         search_delta=(solver.number("search_delta", minimum=0, exclusive=False)
                       if solver.has("search_delta") else 1e-3 * params.toughness),
+        coarse=_check_coarse(source, solver, params, plate_load, dim) if solver.has("coarse") else None,
     )
     snapshots = _parse_snapshots(source, data.get("output", {}), plate_load.t_max)
     return PlateScene(model=params, domain=dom, load=plate_load, solver=options, text=text, source=str(source),
                       material=material, snapshots=snapshots)
+
+
+def _check_coarse(source, solver, params, load, dim):
+    """``[solver] coarse``: the path of a plate run of the same model and load, checked."""
+    raw = solver.data["coarse"]
+    if not isinstance(raw, str):
+        solver._fail("coarse", raw, "must be the path of the results.h5 of a coarser run of the same scene")
+    path = Path(raw)
+    if not path.is_absolute() and source != "<string>":
+        path = Path(source).parent / path
+    import h5py
+
+    try:
+        with h5py.File(path, "r", locking=False) as f:
+            kind, p, grid_dim = f.attrs.get("kind"), dict(f["parameters"].attrs), int(f["grid"].attrs["dim"])
+    except (OSError, KeyError) as err:
+        solver._fail("coarse", raw, f"must be the results.h5 of a plate run; it cannot be read as one"
+                     f" ({err.__class__.__name__})")
+    if kind != "plate" or grid_dim != dim:
+        solver._fail("coarse", raw, f"must be the results of a {dim}D plate run (it is a {grid_dim}D {kind} run)")
+    ours = {"at": params.at, "nu": params.nu, "lam": params.lam, "toughness": params.toughness, "eta": params.eta,
+            "load": load.kind, **({"radius": load.radius} if load.radius else {})}
+    for key, value in ours.items():
+        theirs = p.get(key)
+        same = (theirs == value if isinstance(value, str)
+                else theirs is not None and math.isclose(float(theirs), value, rel_tol=1e-9))
+        if not same:
+            solver._fail("coarse", raw, f"must be a run of the same model and load; it has {key} = {theirs},"
+                         f" this scene {value}")
+    return str(path)
 
 
 _MATERIAL_KEYS = ("E", "nu", "h", "Gc", "K_IC", "bond_stiffness", "L")
