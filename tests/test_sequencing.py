@@ -132,7 +132,7 @@ def test_sequenced_strip_cracks_where_the_exact_solution_does(strip_runs):
 
 def test_coarse_key_errors(tmp_path):
     text = STRIP.replace("CELLS", "[30, 6]")
-    with pytest.raises(SceneError, match=r"solver\.coarse.*cannot be read"):
+    with pytest.raises(SceneError, match=r"solver\.coarse.*no such file"):
         parse_scene(text + 'coarse = "missing.h5"\n', source=str(tmp_path / "s.toml"))
     with pytest.raises(SceneError, match=r"solver\.coarse.*must be the path"):
         parse_scene(text + "coarse = 3\n", source=str(tmp_path / "s.toml"))

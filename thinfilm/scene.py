@@ -473,6 +473,9 @@ def _check_coarse(source, solver, params, load, dim):
     path = Path(raw)
     if not path.is_absolute() and source != "<string>":
         path = Path(source).parent / path
+    if not path.exists():
+        solver._fail("coarse", raw, "must be the results.h5 of a coarser run of the same scene; there is no such"
+                     " file (run that scene first)")
     import h5py
 
     try:
