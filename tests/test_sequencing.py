@@ -1,18 +1,14 @@
 """Grid sequencing (``[solver] coarse``): interpolation of a coarse run's damage, and a fine
 run started from it against the same fine run started from its previous step only."""
 
-from pathlib import Path
-
 import h5py
 import numpy as np
 import pytest
 
 from thinfilm.grid import Grid
 from thinfilm.run import run_plate
-from thinfilm.scene import SceneError, parse_scene
+from thinfilm.scene import SceneError, load_scene, parse_scene
 from thinfilm.sequencing import CoarseDamage
-
-CASES = Path(__file__).resolve().parents[1] / "cases"
 
 
 def _write_results(path, grid, t_values, alphas):
@@ -98,8 +94,6 @@ def strip_runs(tmp_path_factory):
             text += f'coarse = "{coarse}"\n'
         scene_path = root / f"{name}.toml"
         scene_path.write_text(text)
-        from thinfilm.scene import load_scene
-
         run_plate(load_scene(scene_path), root / name)
         with h5py.File(root / name / "results.h5", "r") as f:
             runs[name] = {key: f["steps"][key][()] for key in ("t", "total", "iterations")}

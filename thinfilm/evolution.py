@@ -385,14 +385,14 @@ class Engine:
             update = alpha_star - alpha
             change = float(np.max(np.abs(update))) if alpha.size else 0.0
             changes.append(change)
-            cosine, direction = _cosine(update, direction), update
             elastic, surface = self.model.energies(u, alpha_star, t)
             record.energy_history.append(elastic + surface)
             if deep and iteration % self.backtrack.interval == 0:
                 self._deep_check(step, t, u, alpha_star, elastic, surface, history)
             if change < opts.tol:
                 return State(t, u, alpha_star, elastic, surface)
-            candidate = self._extrapolate(alpha, alpha_star, changes, cosine, omega, omega_cap)
+            candidate = self._extrapolate(alpha_star, update, direction, changes, omega, omega_cap)
+            direction = update
             if candidate is not None:
                 candidate, omega = candidate
                 candidate = np.clip(candidate, lower, 1.0)
@@ -406,8 +406,11 @@ class Engine:
         raise EvolutionError(f"step {step} (t = {t:g}): alternate minimization did not converge in"
                              f" {opts.max_iter} iterations (last change of alpha {change:.3g}, tol {opts.tol:g})")
 
-    def _extrapolate(self, alpha, alpha_star, changes, cosine, omega, omega_cap):
+    def _extrapolate(self, alpha_star, update, previous, changes, omega, omega_cap):
         """The over-relaxed next alpha (before projection) and its factor, or None.
+
+        ``update = alpha* - alpha`` is this iteration's plain update, ``previous`` the last
+        one (None at the first iteration).
 
         Over-relaxation acts only while alternate minimization is in a slow, steady phase (the
         change of alpha shrinks by less than half per iteration and is still above
@@ -433,10 +436,10 @@ class Engine:
         steady = len(changes) >= 2 and changes[-1] > 10 * opts.tol and changes[-1] > 0.5 * changes[-2]
         if opts.acceleration != "overrelax" or not steady:
             return None
-        unstable_mode = changes[-1] > changes[-2] and cosine > MODE_COSINE
+        unstable_mode = changes[-1] > changes[-2] and _cosine(update, previous) > MODE_COSINE
         cap = omega_cap if unstable_mode else min(omega_cap, opts.omega_front)
         omega = min(opts.omega_growth * omega, cap)
-        candidate = alpha_star + (omega - 1.0) * np.maximum(alpha_star - alpha, 0.0)
+        candidate = alpha_star + (omega - 1.0) * np.maximum(update, 0.0)
         return np.minimum(candidate, 0.5 * (1.0 + alpha_star)), omega
 
     def _beats(self, k_state, t, elastic, surface):
