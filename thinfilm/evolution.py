@@ -118,6 +118,10 @@ class AltMinOptions:
         Fig. 2.5 film (800 cells, no search) in two.
     omega_front : float
         The cap of ``omega_k`` in a front-crossing phase (>= 1).
+    omega_tail : float
+        With ``acceleration = "overrelax"``: the cap of the factor of the tail extrapolation
+        (``Engine._extrapolate``), by which the last plain update is extended once the change
+        of alpha is below ``10 tol`` and decays geometrically (1 turns it off).
     omega_growth : float
         Growth factor of ``omega_k`` (> 1).
     u_rtol_min, u_rtol_max : float
@@ -136,6 +140,7 @@ class AltMinOptions:
     acceleration: str = "none"
     omega: float = 1.0
     omega_front: float = 2.0
+    omega_tail: float = 8.0
     omega_growth: float = 2.0
     u_rtol_min: float = 1e-8
     u_rtol_max: float = 1e-5
@@ -286,6 +291,8 @@ class Engine:
             raise ValueError(f"omega = {altmin.omega}: must be in [1, 64]")
         if not altmin.omega_front >= 1.0:
             raise ValueError(f"omega_front = {altmin.omega_front}: must be >= 1")
+        if not altmin.omega_tail >= 1.0:
+            raise ValueError(f"omega_tail = {altmin.omega_tail}: must be >= 1")
         if not altmin.omega_growth > 1.0:
             raise ValueError(f"omega_growth = {altmin.omega_growth}: must be > 1")
         self.model, self.altmin, self.backtrack, self.search = model, altmin, backtrack, search
@@ -430,16 +437,41 @@ class Engine:
         measured necessary: extrapolating where damage recedes left half-healed bands that
         took hundreds of iterations to settle (Fig. 2.7 strip), and letting the
         extrapolation reach 1 locked in wide fully broken bands whose energy is 4% too high
-        (1D film). Near convergence an extrapolated step only overshoots, so none is made.
+        (1D film).
+
+        Below ``10 tol`` (the tail of a step, where a settling crack band drifts by a node or
+        two), alternate minimization converges linearly: on the indentation scene at 640^2
+        the change of alpha shrank by 4-5% per iteration over 30 iterations, the updates all
+        of one shape. When the last three changes decrease, by a ratio ``rho > 1/2``, and the
+        last two updates have a cosine above ``MODE_COSINE``, the remaining path is summed
+        as a geometric series (Aitken): ``alpha* + (omega - 1) (alpha* - alpha)`` with
+        ``omega = 1 / (1 - rho)`` capped at ``omega_tail``, both signs (the band moves). It
+        halved that step (42 -> 21 iterations) and ended at a lower energy.
         """
         opts = self.altmin
-        steady = len(changes) >= 2 and changes[-1] > 10 * opts.tol and changes[-1] > 0.5 * changes[-2]
-        if opts.acceleration != "overrelax" or not steady:
+        if opts.acceleration != "overrelax" or len(changes) < 2:
+            return None
+        if changes[-1] <= 10 * opts.tol:
+            return self._extrapolate_tail(alpha_star, update, previous, changes)
+        steady = changes[-1] > 0.5 * changes[-2]
+        if not steady:
             return None
         unstable_mode = changes[-1] > changes[-2] and _cosine(update, previous) > MODE_COSINE
         cap = omega_cap if unstable_mode else min(omega_cap, opts.omega_front)
         omega = min(opts.omega_growth * omega, cap)
         candidate = alpha_star + (omega - 1.0) * np.maximum(update, 0.0)
+        return np.minimum(candidate, 0.5 * (1.0 + alpha_star)), omega
+
+    def _extrapolate_tail(self, alpha_star, update, previous, changes):
+        """The tail extrapolation of :meth:`_extrapolate` (``(candidate, omega)``), or None."""
+        opts = self.altmin
+        if opts.omega_tail <= 1.0 or len(changes) < 3 or not changes[-1] < changes[-2] < changes[-3]:
+            return None
+        rho = changes[-1] / changes[-2]
+        if rho <= 0.5 or _cosine(update, previous) <= MODE_COSINE:
+            return None
+        omega = min(1.0 / (1.0 - rho), opts.omega_tail)
+        candidate = alpha_star + (omega - 1.0) * update
         return np.minimum(candidate, 0.5 * (1.0 + alpha_star)), omega
 
     def _beats(self, k_state, t, elastic, surface):
