@@ -46,6 +46,9 @@ T_RING, T_BEFORE = 0.25, 0.2
 def ring_scene(cells):
     """``cases/indentation.toml`` on ``cells`` x ``cells`` with tol 1e-3."""
     text = (ROOT / "cases" / "indentation.toml").read_text()
+    for line in ("cells = [320, 320]", 'acceleration = "overrelax"'):
+        if line not in text:  # the table would be labelled with a grid or tol it did not use
+            raise SystemExit(f"cases/indentation.toml has no line {line!r}; update bench_tail.py")
     text = text.replace("cells = [320, 320]", f"cells = [{cells}, {cells}]")
     return parse_scene(text.replace('acceleration = "overrelax"', 'acceleration = "overrelax"\ntol = 1e-3'))
 

@@ -99,7 +99,8 @@ class AltMinOptions:
     max_iter : int
         Iterations per load step before :class:`EvolutionError`.
     acceleration : {"none", "overrelax"}
-        ``"overrelax"``: the growth of damage is extrapolated (see ``omega``), projected on
+        ``"overrelax"``: the growth of damage is extrapolated (see ``omega``), and so is the
+        linear settling tail of a step (see ``omega_tail``); each extrapolation is projected on
         the bounds and kept only if the energy after the next u-solve is below that of the
         plain update it replaces. Anderson acceleration of the same fixed-point map was
         measured and dropped: on the Fig. 2.7 strip it took more iterations than plain
@@ -419,11 +420,11 @@ class Engine:
         ``update = alpha* - alpha`` is this iteration's plain update, ``previous`` the last
         one (None at the first iteration).
 
-        Over-relaxation acts only while alternate minimization is in a slow, steady phase (the
-        change of alpha shrinks by less than half per iteration and is still above
-        ``10 tol``). Plain alternate minimization forms a crack in two such phases, and the
-        factor doubles (``omega_growth``) at each extrapolation up to a cap that depends on
-        the phase:
+        Above ``10 tol``, the growth of damage is over-relaxed only while alternate
+        minimization is in a slow, steady phase (the change of alpha shrinks by less than
+        half per iteration). Plain alternate minimization forms a crack in two such phases,
+        and the factor doubles (``omega_growth``) at each extrapolation up to a cap that
+        depends on the phase:
 
         - a damage mode growing through its instability: the change grows and the update
           keeps its shape (cosine with the last one above ``MODE_COSINE``); cap ``omega``;
