@@ -74,6 +74,9 @@ class FractureModel(Protocol):
     def trial_states(self, u: np.ndarray, alpha: np.ndarray, t: float) -> Sequence[np.ndarray]:
         """Damage fields with one trial crack each, for the nucleation search."""
 
+    # Optional: ``project_alpha(alpha) -> alpha``, applied after every alpha-solve and to the
+    # start of every load step (a model restricted to symmetric fields averages over orbits).
+
 
 #: Least cosine between consecutive updates of alpha for a phase of over-relaxation to count
 #: as an unstable damage mode (see ``Engine._extrapolate``).
@@ -328,8 +331,16 @@ class Engine:
         except DamageSolverError as err:
             raise EvolutionError(f"step {step} (t = {t:g}), alternate-minimization iteration {iteration}:"
                                  f" damage solver failed: {err}") from err
+        alpha = self._project(result.a, lower)
         record.time_alpha += time.perf_counter() - start
-        return result.a
+        return alpha
+
+    def _project(self, alpha, lower):
+        """The model's projection of a damage field onto its admissible set beyond the
+        bounds (the orbit average of a symmetric plate model), if it has one, kept above
+        ``lower`` (irreversibility comes first should ``lower`` itself not be admissible)."""
+        project = getattr(self.model, "project_alpha", None)
+        return alpha if project is None else np.maximum(project(alpha), lower)
 
     # -- one load step --------------------------------------------------------------------
     def alternate_minimization(self, t, alpha0, lower, u0, record, step, history=None):
@@ -353,7 +364,7 @@ class Engine:
         State
         """
         opts = self.altmin
-        alpha = np.maximum(alpha0, lower)
+        alpha = self._project(np.maximum(alpha0, lower), lower)
         u = u0
         change = opts.tol
         changes = []

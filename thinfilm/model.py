@@ -64,10 +64,17 @@ class PlateModel:
         Radius (units of L) of the fully damaged core of a 2D trial crack (a disk); 0 in 1D.
     sound_threshold : float, optional
         Nodes with ``alpha`` below this are "sound" for the nucleation search.
+    symmetry : GridSymmetry, optional
+        Look for u and alpha among fields invariant under this mirror group
+        (:mod:`thinfilm.symmetry`): the u-problem is solved for one unknown per orbit of
+        nodes (``linear_solver`` is then made for the reduced matrix,
+        :meth:`reduced_matrix`), the damage is averaged over each orbit after every
+        alpha-solve (:meth:`project_alpha`) and every trial crack is inserted with all its
+        mirror images. Fields stay full-size everywhere else.
     """
 
     def __init__(self, grid: Grid, nu, winkler, k_res, eta, toughness, at, load: Callable, proportional,
-                 linear_solver, clamped=(), trial_radius=0.0, sound_threshold=0.5):
+                 linear_solver, clamped=(), trial_radius=0.0, sound_threshold=0.5, symmetry=None):
         self.grid = grid
         self.plate = PlateOperator(grid, nu, winkler, k_res, clamped=clamped)
         self.damage = DamageOperator(grid, eta, toughness, at)
@@ -78,14 +85,33 @@ class PlateModel:
         self.n_alpha = grid.n_nodes
         self.trial_radius = float(trial_radius)
         self.sound_threshold = float(sound_threshold)
+        self.symmetry = symmetry
         self.last_solve_info = None
 
-    def solve_u(self, alpha, t, u0, rtol):
+    def reduced_matrix(self, alpha):
+        """The matrix the linear solver sees: the plate operator at ``alpha``, restricted to
+        symmetric fields (``P^T K P``) if the model has a symmetry."""
         K = self.plate.matrix(alpha)
-        self.linear_solver.update(K)
-        u, info = self.linear_solver.solve(self.plate.rhs(self.load(t)), x0=u0, rtol=rtol)
+        return K if self.symmetry is None else self.symmetry.reduce_matrix(K)
+
+    def solve_u(self, alpha, t, u0, rtol):
+        sym = self.symmetry
+        self.linear_solver.update(self.reduced_matrix(alpha))
+        f = self.plate.rhs(self.load(t))
+        if sym is None:
+            u, info = self.linear_solver.solve(f, x0=u0, rtol=rtol)
+        else:
+            v, info = self.linear_solver.solve(sym.reduce_vector(f), x0=None if u0 is None else sym.restrict(u0),
+                                               rtol=rtol)
+            u = sym.expand(v)
         self.last_solve_info = info
         return u
+
+    def project_alpha(self, alpha):
+        """The damage the engine keeps after an alpha-solve: ``alpha`` itself, or its orbit
+        average if the model has a symmetry (the exact minimizer is symmetric; the average
+        removes the damage solver's asymmetric rounding, and is feasible and no worse)."""
+        return alpha if self.symmetry is None else self.symmetry.average(alpha)
 
     def damage_problem(self, u, t):
         return self.damage.problem(self.plate.bending_density(u))
@@ -115,13 +141,16 @@ class PlateModel:
         spacing = (self.grid.hx,) if self.grid.dim == 1 else (self.grid.hy, self.grid.hx)  # [j, i] order
         distance = ndimage.distance_transform_edt(padded, sampling=spacing)[(slice(1, -1),) * sound.ndim]
         out = []
+        orbits = set()   # with a symmetry, one candidate per orbit (its images are added anyway)
         for region in range(1, n + 1):
             mask = labels == region
             if mask.sum() < 3:
                 continue
             for field in (np.where(mask, density, -np.inf), np.where(mask, distance, -np.inf)):
                 node = int(np.ravel_multi_index(np.unravel_index(np.argmax(field), shape), shape))
-                if node not in out:
+                orbit = node if self.symmetry is None else int(self.symmetry.orbit[node])
+                if orbit not in orbits:
+                    orbits.add(orbit)
                     out.append(node)
         return out
 
@@ -140,5 +169,6 @@ class PlateModel:
             else:
                 distance = np.hypot(coords[0] - coords[0][node], coords[1] - coords[1][node])
                 distance = np.maximum(distance - self.trial_radius, 0.0)
-            trials.append(np.maximum(alpha, crack_profile(distance, self.eta, self.at)))
+            trial = np.maximum(alpha, crack_profile(distance, self.eta, self.at))
+            trials.append(trial if self.symmetry is None else self.symmetry.maximum(trial))
         return trials

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from onedim.fragment import lam_from_winkler, winkler_from_lam
+from thinfilm.symmetry import GROUPS, GROUPS_2D, GROUPS_SQUARE
 from thinfilm.units import Material, toughness_from_KIC
 
 MODEL_KINDS = ("exact1d", "plate")
@@ -289,11 +290,16 @@ class PlateParameters:
 
 @dataclass(frozen=True)
 class Domain:
-    """The film: ``x`` (and ``y`` in 2D) intervals and the number of cells along each."""
+    """The film: ``x`` (and ``y`` in 2D) intervals and the number of cells along each.
+
+    ``symmetry`` names a mirror group (:data:`thinfilm.symmetry.GROUPS`) under which the
+    solution is sought among invariant fields, or ``"none"``.
+    """
 
     x: tuple
     y: tuple | None
     cells: tuple
+    symmetry: str = "none"
 
     @property
     def dim(self):
@@ -392,7 +398,7 @@ def _parse_plate(source, data, text):
             raise SceneError(source, name, f"missing table [{name}] (required)")
     model = _Table(source, "model", data["model"],
                    ("kind", "at", "nu", "lam", "winkler", "toughness", "eta", "eta_dx", "k_res"))
-    domain = _Table(source, "domain", data["domain"], ("x", "y", "cells"))
+    domain = _Table(source, "domain", data["domain"], ("x", "y", "cells", "symmetry"))
     load = _Table(source, "load", data["load"], ("kind", "t_max", "steps", "radius", "file", "name"))
     solver = _Table(source, "solver", data.get("solver", {}),
                     ("linear", "tol", "max_iter", "acceleration", "omega", "backtrack", "backtrack_delta", "backtrack_interval",
@@ -411,7 +417,13 @@ def _parse_plate(source, data, text):
             domain._fail("cells", cells if cells is not None else "missing",
                          "must be [nx, ny], two integers >= 2, for a 2D domain (y given)")
         cells = tuple(cells)
-    dom = Domain(x=x, y=y, cells=cells)
+    symmetry = domain.choice("symmetry", tuple(GROUPS), default="none")
+    if dim == 1 and symmetry in GROUPS_2D:
+        domain._fail("symmetry", symmetry, 'must be "none" or "mirror_x" for a 1D domain')
+    if symmetry in GROUPS_SQUARE and not (cells[0] == cells[1] and math.isclose(x[1] - x[0], y[1] - y[0], rel_tol=1e-12)):
+        domain._fail("symmetry", symmetry, f"needs a square grid (x and y intervals of the same length and"
+                                           f" cells = [n, n]), got cells = [{cells[0]}, {cells[1]}]")
+    dom = Domain(x=x, y=y, cells=cells, symmetry=symmetry)
 
     at = model.integer("at", minimum=1, default=1)
     if at not in (1, 2):

@@ -1,0 +1,167 @@
+"""Mirror symmetries of the grid (thinfilm.symmetry) and the plate model restricted to
+symmetric fields: the orbits, the Galerkin reduction ``P^T K P`` against an explicit ``P``,
+the reduced u-solve against the full one, a whole ring step against the unreduced model,
+and the scene checks that refuse a symmetry the scene does not have."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from thinfilm.evolution import AltMinOptions, Engine, StepRecord
+from thinfilm.grid import Grid
+from thinfilm.run import build_grid, make_model
+from thinfilm.scene import SceneError, parse_scene
+from thinfilm.symmetry import GridSymmetry
+
+CASES = Path(__file__).resolve().parent.parent / "cases"
+
+
+def with_symmetry(name, group, **lines):
+    """The case file ``name`` with ``[domain] symmetry = group`` and ``key = value`` lines replaced."""
+    text = (CASES / name).read_text()
+    for key, value in lines.items():
+        old = [line for line in text.splitlines() if line.split("=")[0].strip() == key]
+        assert len(old) == 1, f"{name}: no single line for {key}"
+        text = text.replace(old[0], f"{key} = {value}")
+    cells = next(line for line in text.splitlines() if line.startswith("cells"))
+    text = text.replace(cells, f'{cells}\nsymmetry = "{group}"')
+    return parse_scene(text, source=name)
+
+
+def explicit_P(sym):
+    """The (n_nodes, n_orbits) 0/1 matrix of "node k lies in orbit o"."""
+    n = sym.orbit.size
+    return sp.csr_matrix((np.ones(n), (np.arange(n), sym.orbit)), shape=(n, sym.n_orbits))
+
+
+@pytest.mark.parametrize("cells, group, expected", [
+    # (n + 1)^2 nodes, n + 1 = 2m even: D4 orbits are the m (m + 1) / 2 nodes of an eighth.
+    (5, "d4", 3 * 4 // 2),
+    # n + 1 = 2m + 1 odd: the same with the centre lines, (m + 1)(m + 2) / 2.
+    (6, "d4", 4 * 5 // 2),
+    (5, "d2", 9),           # 3 x 3 quarter
+    (6, "d2", 16),          # 4 x 4 quarter, centre lines included
+    (5, "mirror_x", 3 * 6),
+    (5, "mirror_y", 3 * 6),
+])
+def test_orbits_partition_the_nodes(cells, group, expected):
+    grid = Grid.rectangle(-1.0, 1.0, cells, -1.0, 1.0, cells)
+    sym = GridSymmetry(grid, group)
+    assert sym.n_orbits == expected
+    assert sym.orbit_size.sum() == grid.n_nodes
+    # every node of an orbit is an image of its representative, and nothing else is
+    for p in sym.permutations:
+        assert np.array_equal(sym.orbit[p], sym.orbit)
+
+
+def test_average_is_the_projection_onto_symmetric_fields():
+    grid = Grid.rectangle(-1.0, 1.0, 9, -1.0, 1.0, 9)
+    sym = GridSymmetry(grid, "d4")
+    rng = np.random.default_rng(1)
+    x = rng.random(grid.n_nodes)
+    a = sym.average(x)
+    assert sym.asymmetry(x) > 0.1 and sym.asymmetry(a) == 0.0
+    assert np.array_equal(sym.average(a), a)                 # a projection
+    # the orthogonal projection: x - a is orthogonal to every symmetric field
+    P = explicit_P(sym)
+    assert np.max(np.abs(P.T @ (x - a))) < 1e-12
+    m = sym.maximum(x)
+    assert sym.asymmetry(m) == 0.0 and np.all(m >= x)
+    assert np.array_equal(sym.expand(sym.restrict(a)), a)
+
+
+def test_reduced_matrix_is_P_transpose_K_P():
+    grid = Grid.rectangle(-1.0, 1.0, 8, -1.0, 1.0, 8)
+    n = grid.n_nodes
+    rng = np.random.default_rng(2)
+    K = sp.random(n, n, density=0.05, random_state=3, format="csr")
+    K = (K + K.T + sp.identity(n)).tocsr()
+    for group in ("mirror_x", "d2", "d4"):
+        sym = GridSymmetry(grid, group)
+        P = explicit_P(sym)
+        expected = (P.T @ K @ P).toarray()
+        assert np.max(np.abs(sym.reduce_matrix(K).toarray() - expected)) < 1e-12
+        K2 = K.copy()
+        K2.data = rng.random(K2.nnz)         # same pattern, new values: the cached map
+        assert np.max(np.abs(sym.reduce_matrix(K2).toarray() - (P.T @ K2 @ P).toarray())) < 1e-12
+        f = rng.random(n)
+        assert np.max(np.abs(sym.reduce_vector(f) - P.T @ f)) < 1e-12
+
+
+def test_reduced_u_solve_equals_the_full_solve():
+    # Symmetric damage and load: the minimizer over all u is symmetric, so the Galerkin
+    # restriction to symmetric u must return it to round-off.
+    full = make_model_of(with_symmetry("indentation.toml", "none", cells="[60, 60]"))
+    reduced = make_model_of(with_symmetry("indentation.toml", "d4", cells="[60, 60]"))
+    assert reduced.symmetry.n_orbits == 31 * 32 // 2
+    x, y = full.grid.coordinates
+    r = np.hypot(x, y)
+    alpha = np.clip(1.0 - np.abs(r - 0.2) / 0.02, 0.0, 1.0) + 0.5 * np.exp(-((x - 0.1) ** 2 + y ** 2) / 1e-3)
+    alpha = np.clip(reduced.symmetry.average(alpha), 0.0, 1.0)   # a ring with four spots
+    u_full = full.solve_u(alpha, 0.4, None, 1e-12)
+    u_red = reduced.solve_u(alpha, 0.4, None, 1e-12)
+    assert reduced.symmetry.asymmetry(u_red) == 0.0
+    scale = np.max(np.abs(u_full))
+    assert np.max(np.abs(u_red - u_full)) < 1e-9 * scale
+    assert reduced.energies(u_red, alpha, 0.4) == pytest.approx(full.energies(u_full, alpha, 0.4), rel=1e-10)
+
+
+def make_model_of(scene):
+    return make_model(scene, build_grid(scene.domain))
+
+
+def test_symmetric_ring_step_follows_the_unreduced_one():
+    # The ring step of the indenter from alpha = 0 on 100^2: in exact arithmetic alternate
+    # minimization stays symmetric, so the restricted model must take the same iterations to
+    # the same ring and energy (the unreduced one drifts from symmetry only by round-off).
+    runs = {}
+    for group in ("none", "d4"):
+        model = make_model_of(with_symmetry("indentation.toml", group, cells="[100, 100]", eta="0.016"))
+        engine = Engine(model, AltMinOptions(tol=1e-4, acceleration="overrelax", omega=4.0))
+        record = StepRecord(6, 0.3)
+        zero = np.zeros(model.n_alpha)
+        runs[group] = record, engine.alternate_minimization(0.3, zero, zero, None, record, 6), model
+    (rec_full, full, _), (rec_red, red, model) = runs["none"], runs["d4"]
+    assert rec_red.iterations == rec_full.iterations
+    assert model.symmetry.asymmetry(red.alpha) == 0.0
+    assert full.alpha.max() > 0.99                          # a crack formed
+    assert np.max(np.abs(red.alpha - full.alpha)) < 1e-6
+    assert red.total == pytest.approx(full.total, rel=1e-9)
+
+
+def test_trial_cracks_come_with_their_mirror_images():
+    model = make_model_of(with_symmetry("indentation.toml", "d4", cells="[40, 40]"))
+    sym = model.symmetry
+    u = model.solve_u(np.zeros(model.n_alpha), 0.3, None, 1e-10)
+    nodes = model.candidates(u, np.zeros(model.n_alpha), 0.3)
+    assert len({int(sym.orbit[k]) for k in nodes}) == len(nodes)
+    trials = model.trial_states(u, np.zeros(model.n_alpha), 0.3)
+    assert trials and all(sym.asymmetry(a) == 0.0 for a in trials)
+
+
+@pytest.mark.parametrize("name, group, lines, key, words", [
+    ("indentation.toml", "d4", {"cells": "[320, 300]"}, "domain.symmetry", "square"),
+    ("indentation.toml", "d4", {"y": "[-0.4, 0.3]"}, "domain.symmetry", "square"),
+    ("indentation.toml", "rotation", {}, "domain.symmetry", '"none", "mirror_x"'),
+])
+def test_scene_refuses_a_symmetry_of_another_grid(name, group, lines, key, words):
+    with pytest.raises(SceneError) as err:
+        with_symmetry(name, group, **lines)
+    assert err.value.key == key and words in str(err.value)
+
+
+def test_symmetry_the_load_or_clamp_does_not_have_is_refused():
+    # The cantilever is clamped at x = 0: mirroring x would clamp x = 1 as well.
+    scene = with_symmetry("cantilever_6e6.toml", "mirror_x", cells="[40, 4]")
+    with pytest.raises(SceneError) as err:
+        make_model_of(scene)
+    assert err.value.key == "domain.symmetry" and "clamped edges (x0)" in str(err.value)
+    # Mirroring y is a symmetry of the cantilever's grid, clamp and load.
+    assert make_model_of(with_symmetry("cantilever_6e6.toml", "mirror_y", cells="[40, 4]")).symmetry.n_orbits == 41 * 3
+    # An indenter off the centre of the domain is not invariant under its mirrors.
+    scene = with_symmetry("indentation.toml", "d2", cells="[40, 40]", x="[-0.4, 0.5]", y="[-0.4, 0.5]")
+    with pytest.raises(SceneError) as err:
+        make_model_of(scene)
+    assert err.value.key == "domain.symmetry" and "not invariant" in str(err.value)
