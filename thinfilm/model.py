@@ -159,7 +159,8 @@ class PlateModel:
 
         In 1D the trial crack is the optimal profile centred at the node; in 2D a disk of
         radius ``trial_radius`` fully damaged, with the profile around it, which alternate
-        minimization then grows into a crack or heals.
+        minimization then grows into a crack or heals. With a symmetry the crack is inserted
+        at the candidate and at all its mirror images.
         """
         coords = self.grid.coordinates
         trials = []
