@@ -167,3 +167,16 @@ def test_symmetry_the_load_or_clamp_does_not_have_is_refused():
     with pytest.raises(SceneError) as err:
         make_model_of(scene)
     assert err.value.key == "domain.symmetry" and "not invariant" in str(err.value)
+
+
+def test_command_line_refuses_a_symmetry_in_one_line_and_writes_nothing(tmp_path, capsys):
+    from thinfilm.cli import main
+
+    text = (CASES / "indentation.toml").read_text().replace("x = [-0.4, 0.4]", "x = [-0.4, 0.5]")
+    text = text.replace("y = [-0.4, 0.4]", "y = [-0.4, 0.5]").replace("cells = [320, 320]", 'cells = [40, 40]\nsymmetry = "d2"')
+    scene = tmp_path / "off_centre.toml"
+    scene.write_text(text)
+    assert main(["run", str(scene)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "domain.symmetry" in err[0] and "not invariant" in err[0], err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["off_centre.toml"]

@@ -239,13 +239,13 @@ def run_plate(scene, outdir, progress=lambda n: None, resume=False):
         ``events``.
     """
     outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
+    grid = build_grid(scene.domain)
+    model = make_model(scene, grid)   # may refuse the scene (SceneError): nothing logged or written yet
     for line in describe(scene):
         log.info(line)
     for message in resolution_warnings(scene):
         log.warning(message)
-    grid = build_grid(scene.domain)
-    model = make_model(scene, grid)
+    outdir.mkdir(parents=True, exist_ok=True)
     if model.symmetry is not None:
         log.info(f'symmetry "{model.symmetry.group}": u and alpha invariant under its mirrors;'
                  f" u-solves of {model.symmetry.n_orbits} unknowns instead of {grid.n_nodes}")
