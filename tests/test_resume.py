@@ -72,17 +72,29 @@ def _fields(results):
         return {k: v[()] for k, v in f["steps"].items()}, f["fields/alpha"][()], f["fields/u"][()]
 
 
-@pytest.fixture(scope="module")
-def reference(tmp_path_factory):
+def _reference(tmp_path_factory, text):
     tmp = tmp_path_factory.mktemp("reference")
     scene = tmp / "film.toml"
-    scene.write_text(SCENE)
+    scene.write_text(text)
     assert main(["run", str(scene), "--out", str(tmp / "out"), "--quiet"]) == 0
     return scene, _fields(tmp / "out" / "results.h5")
 
 
-def test_killed_run_resumes_to_the_same_results(reference, tmp_path):
-    scene, (steps, alpha, u) = reference
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    return _reference(tmp_path_factory, SCENE)
+
+
+@pytest.fixture(scope="module")
+def reference_mirror(tmp_path_factory):
+    # The same film restricted to fields even in x: the resumed run must rebuild the same
+    # restriction and continue from the stored (full-size) fields.
+    return _reference(tmp_path_factory, SCENE.replace("cells = 160", 'cells = 160\nsymmetry = "mirror_x"'))
+
+
+@pytest.mark.parametrize("name", ["reference", "reference_mirror"])
+def test_killed_run_resumes_to_the_same_results(name, request, tmp_path):
+    scene, (steps, alpha, u) = request.getfixturevalue(name)
     out = tmp_path / "out"
     proc = _start(scene, out)
     _stop_after(proc, out / "results.h5", 30, signal.SIGKILL)
