@@ -79,7 +79,7 @@ def case(nodes, symmetry, out):
     unknowns = grid.n_nodes if model.symmetry is None else model.symmetry.n_orbits
     return dict(nodes=f"{nodes}^2", symmetry=symmetry, unknowns=unknowns, setup_s=round(setup, 2),
                 u_solve_s=round(float(np.median(times)), 3), energy=energy,
-                peak_gb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6, 2))
+                peak_gb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e9, 2))  # KiB
 
 
 def main(argv=None):

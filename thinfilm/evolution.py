@@ -74,8 +74,10 @@ class FractureModel(Protocol):
     def trial_states(self, u: np.ndarray, alpha: np.ndarray, t: float) -> Sequence[np.ndarray]:
         """Damage fields with one trial crack each, for the nucleation search."""
 
-    # Optional: ``project_alpha(alpha) -> alpha``, applied after every alpha-solve and to the
-    # start of every load step (a model restricted to symmetric fields averages over orbits).
+    # Optional, for a model whose damage is restricted to a subset (symmetric fields):
+    # ``project_lower(lower) -> lower``, the least admissible bound above ``lower``, applied
+    # once per load step; ``project_alpha(alpha) -> alpha``, applied after every alpha-solve
+    # and to the start of every load step.
 
 
 #: Least cosine between consecutive updates of alpha for a phase of over-relaxation to count
@@ -338,9 +340,17 @@ class Engine:
     def _project(self, alpha, lower):
         """The model's projection of a damage field onto its admissible set beyond the
         bounds (the orbit average of a symmetric plate model), if it has one, kept above
-        ``lower`` (irreversibility comes first should ``lower`` itself not be admissible)."""
+        ``lower`` (already admissible, :meth:`_admissible_lower`; the maximum only undoes
+        rounding)."""
         project = getattr(self.model, "project_alpha", None)
         return alpha if project is None else np.maximum(project(alpha), lower)
+
+    def _admissible_lower(self, lower):
+        """The least admissible damage above ``lower`` (for a symmetric plate model, its
+        orbit maximum: a bound that is not symmetric, e.g. an asymmetric initial damage,
+        would otherwise let an asymmetric alpha reach the restricted u-solve)."""
+        project = getattr(self.model, "project_lower", None)
+        return lower if project is None else project(lower)
 
     # -- one load step --------------------------------------------------------------------
     def alternate_minimization(self, t, alpha0, lower, u0, record, step, history=None):
@@ -364,6 +374,7 @@ class Engine:
         State
         """
         opts = self.altmin
+        lower = self._admissible_lower(lower)
         alpha = self._project(np.maximum(alpha0, lower), lower)
         u = u0
         change = opts.tol

@@ -201,7 +201,8 @@ class PlateResultsWriter:
     Layout::
 
         /                  attrs as for exact runs (format, kind = "plate", scene, versions...)
-        /parameters        attrs: at, nu, lam, winkler, toughness, eta, k_res, t_max, steps
+        /parameters        attrs: at, nu, lam, winkler, toughness, eta, k_res, t_max, steps,
+                           symmetry ("none" or the mirror group the fields were restricted to)
         /grid              attrs: dim, x0, x1, nx (and y0, y1, ny); datasets x (nx+1,), y (ny+1,)
         /steps/<name>      (n,) one value per finished step: t, elastic, surface, total,
                            iterations, u_solves, u_solves_skipped, backtracks, trials,
@@ -243,6 +244,7 @@ class PlateResultsWriter:
         f.create_group("parameters").attrs.update({
             "at": m.at, "nu": m.nu, "lam": m.lam, "winkler": m.winkler, "toughness": m.toughness,
             "eta": m.eta, "k_res": m.k_res, "t_max": load.t_max, "steps": load.steps, "load": load.kind,
+            "symmetry": scene.domain.symmetry,
             **({"radius": load.radius} if load.radius else {}), **({"field_file": load.file} if load.file else {}),
             **({"snapshots": scene.snapshots} if scene.snapshots else {}),
         })

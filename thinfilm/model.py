@@ -95,6 +95,13 @@ class PlateModel:
         return K if self.symmetry is None else self.symmetry.reduce_matrix(K)
 
     def solve_u(self, alpha, t, u0, rtol):
+        """Minimize the energy over u at fixed ``alpha`` (shape ``(n_nodes,)``).
+
+        With a symmetry ``alpha`` must be symmetric (the engine sees to it) and the solver
+        works on ``P^T K P v = P^T f``; an iterative solver's ``rtol`` then measures the
+        residual ``P^T r``, whose entries are orbit sums (a norm weighted by orbit size, within
+        a factor sqrt(8) of the full residual's for a symmetric residual).
+        """
         sym = self.symmetry
         self.linear_solver.update(self.reduced_matrix(alpha))
         f = self.plate.rhs(self.load(t))
@@ -109,9 +116,15 @@ class PlateModel:
 
     def project_alpha(self, alpha):
         """The damage the engine keeps after an alpha-solve: ``alpha`` itself, or its orbit
-        average if the model has a symmetry (the exact minimizer is symmetric; the average
-        removes the damage solver's asymmetric rounding, and is feasible and no worse)."""
+        average if the model has a symmetry (the exact minimizer, unique since the damage
+        problem is positive definite, is symmetric; the average removes the damage solver's
+        asymmetric rounding, and is feasible and no worse)."""
         return alpha if self.symmetry is None else self.symmetry.average(alpha)
+
+    def project_lower(self, lower):
+        """The irreversibility bound of a load step: ``lower`` itself, or with a symmetry its
+        orbit maximum (the least symmetric field above it), shape ``(n_nodes,)``."""
+        return lower if self.symmetry is None else self.symmetry.maximum(np.broadcast_to(lower, (self.n_alpha,)))
 
     def damage_problem(self, u, t):
         return self.damage.problem(self.plate.bending_density(u))
