@@ -12,7 +12,7 @@ per orbit.
   (it is unique) when K and f are invariant, i.e. when alpha and the load are. With the
   dihedral group of the square (8 elements) the system has 1/8 of the unknowns, and a
   nested-dissection factorization, whose cost grows like ``n^1.5``, about 8^1.5 = 23x
-  cheaper (measured: 18x at 1500^2 nodes, ``benchmarks/bench_symmetry.py``).
+  cheaper (measured: 15-20x at 1500^2 nodes, ``benchmarks/bench_symmetry.py``).
 * The alpha-problem is convex: its minimizer is invariant when u and the bounds are, and
   the orbit average of an approximate minimizer is feasible and no worse (Jensen). The
   averaging (:meth:`GridSymmetry.average`) keeps the rounding of the damage solver from
@@ -192,8 +192,9 @@ class GridSymmetry:
             unique, data_map = np.unique(keys, return_inverse=True)
             reduced_rows, reduced_cols = np.divmod(unique, self.n_orbits)
             indptr = np.concatenate(([0], np.cumsum(np.bincount(reduced_rows, minlength=self.n_orbits))))
-            # int32 map: 4 bytes per entry of K (116 MB at 1500^2 nodes), kept for the run.
-            cached = ((K.nnz, K.indptr.copy(), K.indices.copy()), data_map.astype(np.int32),
+            # int64 map (232 MB at 1500^2 nodes): bincount casts an int32 one on every call,
+            # which made a reduction 0.7 s instead of 0.11 s there.
+            cached = ((K.nnz, K.indptr.copy(), K.indices.copy()), data_map.astype(np.int64),
                       indptr.astype(np.int64), reduced_cols.astype(np.int64))
             self._reduction = cached
         _, data_map, indptr, indices = cached
