@@ -333,17 +333,17 @@ class Engine:
         except DamageSolverError as err:
             raise EvolutionError(f"step {step} (t = {t:g}), alternate-minimization iteration {iteration}:"
                                  f" damage solver failed: {err}") from err
-        alpha = self._project(result.a, lower)
+        alpha = self._project(result.a)
         record.time_alpha += time.perf_counter() - start
         return alpha
 
-    def _project(self, alpha, lower):
+    def _project(self, alpha):
         """The model's projection of a damage field onto its admissible set beyond the
-        bounds (the orbit average of a symmetric plate model), if it has one, kept above
-        ``lower`` (already admissible, :meth:`_admissible_lower`; the maximum only undoes
-        rounding)."""
+        bounds (the orbit average of a symmetric plate model), if it has one. It must keep
+        a field that is above an admissible bound (:meth:`_admissible_lower`) above it; the
+        orbit average, clipped to each orbit's least value, does."""
         project = getattr(self.model, "project_alpha", None)
-        return alpha if project is None else np.maximum(project(alpha), lower)
+        return alpha if project is None else project(alpha)
 
     def _admissible_lower(self, lower):
         """The least admissible damage above ``lower`` (for a symmetric plate model, its
@@ -375,7 +375,7 @@ class Engine:
         """
         opts = self.altmin
         lower = self._admissible_lower(lower)
-        alpha = self._project(np.maximum(alpha0, lower), lower)
+        alpha = self._project(np.maximum(alpha0, lower))
         u = u0
         change = opts.tol
         changes = []

@@ -115,7 +115,7 @@ class GridSymmetry:
         # |G| n_orbits = n_nodes reads, in the same order for every node of an orbit.
         self._orbit_nodes = np.stack([p[self.representative] for p in self.permutations])
         self.n_nodes = grid.n_nodes
-        self._reduction = None   # (pattern key, data map, reduced pattern) of the last matrix
+        self._reduction = None   # ((indptr, indices) of K, data map, reduced indptr, indices)
 
     @property
     def n_orbits(self) -> int:
@@ -179,14 +179,17 @@ class GridSymmetry:
         Notes
         -----
         The reduced pattern, and where each stored entry of K lands in it, are computed for
-        the first matrix and reused while the pattern stays the same (the plate operator
-        keeps one pattern and changes only its values), so that a reduction is one
-        ``bincount`` over the entries.
+        the first matrix and reused while the pattern stays the same, so that a reduction is
+        one ``bincount`` over the entries. The plate operator returns one matrix object whose
+        values it rewrites in place (:meth:`thinfilm.operators.PlateOperator.matrix`): its
+        pattern arrays are recognized by identity, without copying or comparing them.
         """
         K = sp.csr_matrix(K)
         cached = self._reduction
-        if cached is None or not (cached[0][0] == K.nnz and np.array_equal(cached[0][1], K.indptr)
-                                  and np.array_equal(cached[0][2], K.indices)):
+        same = cached is not None and (
+            (cached[0][0] is K.indptr and cached[0][1] is K.indices)
+            or (np.array_equal(cached[0][0], K.indptr) and np.array_equal(cached[0][1], K.indices)))
+        if not same:
             rows = np.repeat(self.orbit, np.diff(K.indptr))
             keys = rows * self.n_orbits + self.orbit[K.indices]
             unique, data_map = np.unique(keys, return_inverse=True)
@@ -194,7 +197,7 @@ class GridSymmetry:
             indptr = np.concatenate(([0], np.cumsum(np.bincount(reduced_rows, minlength=self.n_orbits))))
             # int64 map (232 MB at 1500^2 nodes): bincount casts an int32 one on every call,
             # which made a reduction 0.7 s instead of 0.11 s there.
-            cached = ((K.nnz, K.indptr.copy(), K.indices.copy()), data_map.astype(np.int64),
+            cached = ((K.indptr, K.indices), data_map.astype(np.int64),
                       indptr.astype(np.int64), reduced_cols.astype(np.int64))
             self._reduction = cached
         _, data_map, indptr, indices = cached
