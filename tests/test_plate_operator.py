@@ -251,6 +251,18 @@ def test_alpha_problem_quadratic_form(grid, clamped, at):
     assert A2 is A
 
 
+@pytest.mark.parametrize("grid,clamped", CASES, ids=IDS)
+@pytest.mark.parametrize("at", [1, 2])
+def test_nodal_energy_sums_to_total(grid, clamped, at):
+    plate = PlateOperator(grid, 0.3, 5.0, 1e-3, clamped)
+    damage = DamageOperator(grid, eta=0.2, toughness=3.0, at=at)
+    alpha, _, w = random_state(grid, plate, seed=8)
+    u = np.random.default_rng(9).standard_normal(grid.n_nodes)  # clamped values ignored
+    nodal = energy.nodal_energy(plate, damage, u, alpha, w)
+    assert nodal.shape == (grid.n_nodes,)
+    assert nodal.sum() == pytest.approx(energy.total_energy(plate, damage, u, alpha, w), rel=1e-12)
+
+
 # ------------------------------------------------------------------------------------------
 # 1D and 2D: the same code
 # ------------------------------------------------------------------------------------------

@@ -498,9 +498,14 @@ class DirectSolver:
         return u, SolveInfo(self.kind, its, res, rtol, t1 - t0, t2 - t1, rebuilt)
 
     def __call__(self, K, f, x0=None, rtol=None):
-        """``update(K)`` (skipped if K is the matrix already held) then ``solve``."""
-        if K is not self.K:
-            self.update(K)
+        """``update(K)`` then ``solve``.
+
+        Always takes K's current values, also when K is the object passed before:
+        :meth:`thinfilm.operators.PlateOperator.matrix` rewrites one matrix in place, so
+        identity says nothing about the values. Call :meth:`solve` alone to reuse the last
+        update.
+        """
+        self.update(K)
         return self.solve(f, x0=x0, rtol=rtol)
 
     def close(self):
@@ -774,9 +779,14 @@ class AMGSolver:
             self._stale = True
 
     def __call__(self, K, f, x0=None, rtol=None):
-        """``update(K)`` (skipped if K is the matrix already held) then ``solve``."""
-        if K is not self.K:
-            self.update(K)
+        """``update(K)`` then ``solve``.
+
+        Always takes K's current values, also when K is the object passed before:
+        :meth:`thinfilm.operators.PlateOperator.matrix` rewrites one matrix in place, so
+        identity says nothing about the values. Call :meth:`solve` alone to reuse the last
+        update.
+        """
+        self.update(K)
         return self.solve(f, x0=x0, rtol=rtol)
 
     def close(self):
