@@ -99,9 +99,9 @@ def run_case(name, cells, max_iter):
     scene = parse_scene(SCENE.format(toughness=toughness, eta=ETA, half=HALF_WIDTH, cells=cells, t=t,
                                      max_iter=max_iter), source=f"<{name}>")
     grid = build_grid(scene.domain)
+    model = make_model(scene, grid)  # one model (and solver analysis) for every seed
     rows, fields = [], {}
     for seed_name, angles in SEEDS.items():
-        model = make_model(scene, grid)
         engine = make_engine(scene, model)
         seed = seed_damage(grid, ETA, angles, length)
         start = time.perf_counter()
