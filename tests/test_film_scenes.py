@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from thinfilm.cracks import arms
 from thinfilm.evolution import AltMinOptions, Engine, StepRecord
 from thinfilm.results import PlateResults
 from thinfilm.run import build_grid, make_model, run_plate
@@ -77,23 +78,6 @@ def test_ito_film_in_physical_units_is_the_indentation_scene():
     assert ito.model.toughness == pytest.approx(plain.model.toughness, rel=1e-4)
     assert ito.model.winkler == pytest.approx(plain.model.winkler, rel=1e-4)
     assert (ito.domain, ito.load, ito.model.eta, ito.model.nu) == (plain.domain, plain.load, plain.model.eta, plain.model.nu)
-
-
-def arms(alpha, x, y, radius, threshold=0.9):
-    """Directions (degrees in [0, 360)) of the cracks that cut the circle of ``radius`` about
-    the origin: the centres of the arcs where alpha >= threshold."""
-    from scipy.interpolate import RegularGridInterpolator
-
-    theta = np.linspace(0.0, 2 * np.pi, 720, endpoint=False)
-    ring = RegularGridInterpolator((y, x), alpha)(np.c_[radius * np.sin(theta), radius * np.cos(theta)])
-    broken = ring >= threshold
-    if broken.all() or not broken.any():
-        return np.array([])
-    start = np.argmin(broken)  # an intact point: arcs do not wrap past it
-    broken, theta = np.roll(broken, -start), np.roll(theta, -start)
-    edges = np.flatnonzero(np.diff(np.r_[broken, False].astype(int)))
-    return np.degrees([np.angle(np.exp(1j * theta[a + 1:b + 1]).mean()) % (2 * np.pi)
-                       for a, b in zip(edges[::2], edges[1::2])])
 
 
 def test_indenter_crossing_cracks_meet_at_right_angles(tmp_path):

@@ -82,13 +82,19 @@ def surface_energy(damage: "DamageOperator", alpha) -> float:
 
     ``toughness/(4 c_m) Int( alpha^m / eta + eta |grad alpha|^2 )``, ``m = at``, with the
     trapezoidal rule for the first term and forward differences on grid edges for the
-    second (see :mod:`thinfilm.operators`).
+    second (see :mod:`thinfilm.operators`). For a film of varying toughness each node's
+    local term takes its factor and each edge's gradient term the mean of its nodes'.
     """
     grid = damage.grid
     alpha = _nodal(grid, "alpha", alpha)
-    return float(
-        kernels.surface_energy(alpha, grid.nx, grid.ny, grid.hx, grid.hy, damage.eta, damage.toughness, damage.at)
-    )
+    if damage.toughness_factor is None:
+        return float(
+            kernels.surface_energy(alpha, grid.nx, grid.ny, grid.hx, grid.hy, damage.eta, damage.toughness, damage.at)
+        )
+    # A film of varying toughness: the same sums with the factor in each term.
+    local = float(damage.local_weights @ alpha**damage.at)
+    gradient = float(alpha @ (damage.surface_laplacian @ alpha))
+    return damage.cs * (local / damage.eta + damage.eta * gradient)
 
 
 def total_energy(plate: "PlateOperator", damage: "DamageOperator", u, alpha, w) -> float:
@@ -119,9 +125,9 @@ def nodal_energy(plate: "PlateOperator", damage: "DamageOperator", u, alpha, w) 
     u[plate.clamped_nodes] = 0.0  # the energy ignores stored values there
     alpha = _nodal(grid, "alpha", alpha)
     w = _nodal(grid, "w", w)
-    omega = grid.weights
-    foundation = 0.5 * plate.winkler * omega * (u - w) ** 2
-    surface = damage.cs * (omega * alpha**damage.at / damage.eta + damage.eta * alpha * (damage.laplacian @ alpha))
+    foundation = 0.5 * plate.winkler * grid.weights * (u - w) ** 2
+    surface = damage.cs * (damage.local_weights * alpha**damage.at / damage.eta
+                           + damage.eta * alpha * (damage.surface_laplacian @ alpha))
     return 0.5 * plate.degradation(alpha) * bending_density(plate, u) + foundation + surface
 
 

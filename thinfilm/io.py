@@ -209,6 +209,8 @@ class PlateResultsWriter:
                            trials_accepted, time_u, time_alpha, time_total (seconds)
         /fields/u          (n, n_nodes) displacement of each finished step
         /fields/alpha      (n, n_nodes) damage of each finished step
+        /fields/toughness  (n_nodes,) G/a at the nodes, for an imperfect film only
+                           (parameters toughness_noise, toughness_noise_length, toughness_noise_seed)
 
     Nodal fields follow :mod:`thinfilm.grid`'s flattening (``reshape(ny+1, nx+1)`` in 2D).
     A backtrack to step k truncates every dataset to k steps before step k is rewritten, so
@@ -219,9 +221,14 @@ class PlateResultsWriter:
     path : Path
     scene : thinfilm.scene.PlateScene
     grid : thinfilm.grid.Grid
+    resume : bool
+        Continue an existing file written by the same scene text.
+    toughness : ndarray, shape (n_nodes,), optional
+        The toughness field of an imperfect film (stored; on resume, checked against the
+        stored one, which the random generator of another numpy could change).
     """
 
-    def __init__(self, path, scene, grid, resume=False):
+    def __init__(self, path, scene, grid, resume=False, toughness=None):
         self.path = Path(path)
         if resume:
             self.file = h5py.File(self.path, "r+")
@@ -230,6 +237,10 @@ class PlateResultsWriter:
                 self.file.close()
                 raise ResumeError(f"{self.path} was written by a different scene text; it cannot be resumed"
                                   " (run with --force to start over)")
+            if toughness is not None and not np.array_equal(self.file["fields"]["toughness"][()], toughness):
+                self.file.close()
+                raise ResumeError(f"{self.path}: this installation draws another toughness field from the same"
+                                  " seed (numpy's generator changed?); it cannot be resumed (run with --force)")
             self.trim()  # a step whose write was cut short is not finished
             return
         self.file = h5py.File(self.path, "w")
@@ -245,6 +256,8 @@ class PlateResultsWriter:
             "at": m.at, "nu": m.nu, "lam": m.lam, "winkler": m.winkler, "toughness": m.toughness,
             "eta": m.eta, "k_res": m.k_res, "t_max": load.t_max, "steps": load.steps, "load": load.kind,
             "symmetry": scene.domain.symmetry,
+            **({"toughness_noise": m.toughness_noise, "toughness_noise_length": m.toughness_noise_length,
+                "toughness_noise_seed": m.toughness_noise_seed} if m.toughness_noise > 0 else {}),
             **({"radius": load.radius} if load.radius else {}), **({"field_file": load.file} if load.file else {}),
             **({"snapshots": scene.snapshots} if scene.snapshots else {}),
         })
@@ -269,6 +282,8 @@ class PlateResultsWriter:
         for name in ("u", "alpha"):
             fields.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype=np.float64,
                                   chunks=(1, min(n, 1 << 20)))
+        if toughness is not None:
+            fields["toughness"] = np.asarray(toughness, dtype=np.float64)
         f.flush()
 
     def write_step(self, record, state):

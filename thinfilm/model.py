@@ -71,13 +71,17 @@ class PlateModel:
         :meth:`reduced_matrix`), the damage is averaged over each orbit after every
         alpha-solve (:meth:`project_alpha`) and every trial crack is inserted with all its
         mirror images. Fields stay full-size everywhere else.
+    toughness_factor : ndarray, shape (n_nodes,), optional
+        A film of varying toughness ``toughness * factor`` (:mod:`thinfilm.imperfection`);
+        with a symmetry it must be invariant under it.
     """
 
     def __init__(self, grid: Grid, nu, winkler, k_res, eta, toughness, at, load: Callable, proportional,
-                 linear_solver, clamped=(), trial_radius=0.0, sound_threshold=0.5, symmetry=None):
+                 linear_solver, clamped=(), trial_radius=0.0, sound_threshold=0.5, symmetry=None,
+                 toughness_factor=None):
         self.grid = grid
         self.plate = PlateOperator(grid, nu, winkler, k_res, clamped=clamped)
-        self.damage = DamageOperator(grid, eta, toughness, at)
+        self.damage = DamageOperator(grid, eta, toughness, at, toughness_factor=toughness_factor)
         self.eta, self.at = float(eta), int(at)
         self.load = load
         self.proportional = bool(proportional)
@@ -138,7 +142,8 @@ class PlateModel:
 
     def candidates(self, u, alpha, t):
         """Candidate nucleation points: in each sound region, its point of largest elastic
-        energy density and its point farthest from damage and edges (its "middle").
+        energy density (relative to the local toughness in an imperfect film: where AT
+        damage would start first) and its point farthest from damage and edges (its "middle").
 
         Returns
         -------
@@ -147,7 +152,10 @@ class PlateModel:
         """
         shape = self.grid.shape
         sound = (alpha < self.sound_threshold).reshape(shape)
-        density = self.elastic_density(u, alpha, t).reshape(shape)
+        density = self.elastic_density(u, alpha, t)
+        if self.damage.toughness_factor is not None:
+            density = density / self.damage.toughness_factor
+        density = density.reshape(shape)
         labels, n = ndimage.label(sound)
         # Distance to damage and to the domain boundary: pad with non-sound nodes.
         padded = np.pad(sound, 1, constant_values=False)

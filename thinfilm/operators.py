@@ -59,6 +59,11 @@ forward differences on grid edges, edge weights ``hx omega_y_j`` (x-edges) and
                                 + eta sum_{x-edges} omega_y_j / hx (alpha_{i+1,j} - alpha_{i,j})^2
                                 + eta sum_{y-edges} omega_x_i / hy (alpha_{i,j+1} - alpha_{i,j})^2 ]
 
+An imperfect film, of toughness ``toughness * f_n`` at node ``n`` (:mod:`thinfilm.imperfection`),
+weights node ``n``'s local term by ``f_n`` and an edge's gradient term by the mean of its two
+nodes' factors (``omega -> omega f``, ``L -> L_G`` below): a second-order quadrature of
+``Int G(x) (...)`` for a smooth ``G``.
+
 The alpha-problem at fixed ``u`` is quadratic: with ``e_n`` the lumped undamaged bending
 energy (``P_bending = 1/2 sum_n g_n e_n``; see :func:`thinfilm.energy.bending_density`),
 ``L`` the edge Laplacian (``alpha.L.alpha`` = the gradient sum) and ``cs = toughness/(4 c_m)``::
@@ -313,6 +318,10 @@ class DamageOperator:
         ``G/a``, > 0 (energy per unit crack length, non-dimensional).
     at : int
         1 (AT1, linear ``alpha/eta``) or 2 (AT2, ``alpha^2/eta``).
+    toughness_factor : ndarray, shape (n_nodes,), optional
+        A film of varying toughness ``G_n = toughness * factor_n`` (factors > 0, see
+        :mod:`thinfilm.imperfection`). The local term of node ``n`` takes ``factor_n``, the
+        gradient term of an edge the mean of its two nodes' factors. None: uniform.
 
     Notes
     -----
@@ -320,7 +329,7 @@ class DamageOperator:
     once; each call rewrites only its diagonal, in place (same object returned each time).
     """
 
-    def __init__(self, grid: Grid, eta: float, toughness: float, at: int = 1):
+    def __init__(self, grid: Grid, eta: float, toughness: float, at: int = 1, toughness_factor=None):
         if not isinstance(grid, Grid):
             raise TypeError(f"grid = {grid!r} must be a thinfilm.grid.Grid")
         self.grid = grid
@@ -331,25 +340,50 @@ class DamageOperator:
         self.at = int(at)
         self.cs = self.toughness / (4.0 * c_m(self.at))
 
+        if toughness_factor is not None:
+            toughness_factor = _nodal(grid, "toughness_factor", toughness_factor)
+            if not (np.all(np.isfinite(toughness_factor)) and np.all(toughness_factor > 0)):
+                raise ValueError("toughness_factor must be finite and > 0 at every node")
+        self.toughness_factor = toughness_factor
+
         indptr, indices, data, diag_pos = kernels.laplacian_pattern(grid.nx, grid.ny, grid.hx, grid.hy)
         n = grid.n_nodes
         self._laplacian = sp.csr_matrix((data, indices, indptr), shape=(n, n))
         self._laplacian.has_sorted_indices = True
         self._diag_pos = diag_pos
-        # A = 2 cs eta L + diag(e) [+ 2 cs omega/eta]: only the diagonal depends on u.
-        self._A = sp.csr_matrix((2.0 * self.cs * self.eta * data, indices, indptr), shape=(n, n))
+        if toughness_factor is None:
+            self._surface_laplacian = self._laplacian
+            self._local_weights = grid.weights
+        else:
+            self._surface_laplacian = _edge_weighted(self._laplacian, diag_pos, toughness_factor)
+            self._local_weights = grid.weights * toughness_factor
+        # A = 2 cs eta L_G + diag(e) [+ 2 cs omega_G/eta]: only the diagonal depends on u.
+        self._A = sp.csr_matrix((2.0 * self.cs * self.eta * self._surface_laplacian.data, indices, indptr),
+                                shape=(n, n))
         self._A.has_sorted_indices = True
         self._diag_fixed = self._A.data[diag_pos].copy()
         if self.at == 2:
-            self._diag_fixed += 2.0 * self.cs / self.eta * grid.weights
+            self._diag_fixed += 2.0 * self.cs / self.eta * self._local_weights
             self._linear = np.zeros(n)
         else:
-            self._linear = self.cs / self.eta * grid.weights
+            self._linear = self.cs / self.eta * self._local_weights
 
     @property
     def laplacian(self) -> sp.csr_matrix:
         """Edge Laplacian ``L``, ``alpha.L.alpha = sum_e omega_e (D alpha)_e^2`` (a copy)."""
         return self._laplacian.copy()
+
+    @property
+    def surface_laplacian(self) -> sp.csr_matrix:
+        """``L_G``: the edge Laplacian with each edge weighted by its toughness factor,
+        ``alpha.L_G.alpha = sum_e f_e omega_e (D alpha)_e^2`` (``L`` itself for a uniform
+        film; a copy)."""
+        return self._surface_laplacian.copy()
+
+    @property
+    def local_weights(self) -> np.ndarray:
+        """``omega_n f_n``: the node weights of the local term ``alpha^m / eta`` (a copy)."""
+        return self._local_weights.copy()
 
     def surface_energy(self, alpha) -> float:
         """Surface energy ``S_h(alpha)``; see :func:`thinfilm.energy.surface_energy`."""
@@ -376,3 +410,18 @@ class DamageOperator:
         e = _nodal(self.grid, "e", e)
         self._A.data[self._diag_pos] = self._diag_fixed + e
         return self._A, e - self._linear
+
+
+def _edge_weighted(L: sp.csr_matrix, diag_pos: np.ndarray, factor: np.ndarray) -> sp.csr_matrix:
+    """The Laplacian ``L`` (zero row sums) with the edge ``(p, q)`` scaled by
+    ``(factor_p + factor_q) / 2``: the off-diagonal entries are scaled, the diagonal is the
+    negated sum of its row's off-diagonal entries again. Same pattern as ``L``."""
+    n = L.shape[0]
+    rows = np.repeat(np.arange(n), np.diff(L.indptr))
+    off = L.indices != rows
+    data = L.data.copy()
+    data[off] *= 0.5 * (factor[rows[off]] + factor[L.indices[off]])
+    data[diag_pos] = -np.bincount(rows[off], weights=data[off], minlength=n)
+    out = sp.csr_matrix((data, L.indices.copy(), L.indptr.copy()), shape=L.shape)
+    out.has_sorted_indices = True
+    return out

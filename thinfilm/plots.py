@@ -343,6 +343,37 @@ def _cracks(res, outdir):
     return path
 
 
+def _toughness(res, outdir):
+    """The toughness field of an imperfect film, ``toughness.png``; None for a uniform film."""
+    stored = res.file["fields"].get("toughness")
+    if stored is None:
+        return None
+    values = stored[()]
+    path = Path(outdir) / "toughness.png"
+    p = res.parameters
+    title = (f"toughness G/a = {p['toughness']:g} exp({p['toughness_noise']:g} $\\xi$)\n"
+             f"correlation length {p['toughness_noise_length']:.3g}, seed {p['toughness_noise_seed']}")
+    if res.dim == 1:
+        fig, ax = _line_figure(6.8, 3.2)
+        ax.plot(res.x, values, lw=1.0)
+        ax.set_xlim(res.x[0], res.x[-1])
+        ax.set_xlabel("x (L)")
+        ax.set_ylabel("G/a")
+    else:
+        aspect = (res.y[-1] - res.y[0]) / (res.x[-1] - res.x[0])
+        width = min(6.0, 4.5 / aspect)
+        fig, ax = _line_figure(width + 1.6, width * aspect + 1.2)
+        image = ax.imshow(values.reshape(len(res.y), len(res.x)), origin="lower", extent=_extent(res),
+                          cmap="cividis", interpolation="auto")
+        ax.set_xlabel("x (L)")
+        ax.set_ylabel("y (L)")
+        fig.colorbar(image, ax=ax, label="G/a", shrink=0.9)
+    ax.set_title(title, fontsize=9)
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
 def _animate(res, outdir, max_frames=MAX_FRAMES, fps=10):
     from matplotlib.animation import PillowWriter
 
@@ -484,8 +515,8 @@ def plot_plate(results, outdir=None, loads=None, animate=False, xdmf=True):
     -------
     list of Path
         ``energy.png``, ``cracks.png``, ``alpha.png``, ``alpha_snapshots.png``,
-        ``u_snapshots.png``, ``iterations.png``, then ``alpha.gif`` and ``results.xdmf`` if
-        asked for.
+        ``u_snapshots.png``, ``iterations.png``, ``toughness.png`` for an imperfect film, then
+        ``alpha.gif`` and ``results.xdmf`` if asked for.
     """
     with PlateResults(results) as res:
         if res.n == 0:
@@ -504,6 +535,9 @@ def plot_plate(results, outdir=None, loads=None, animate=False, xdmf=True):
             _snapshots(res, outdir, "u", loads),
             _iterations(res, outdir),
         ]
+        toughness = _toughness(res, outdir)
+        if toughness is not None:
+            paths.append(toughness)
         if animate:
             paths.append(_animate(res, outdir))
     if xdmf:

@@ -19,6 +19,7 @@ import numpy as np
 from thinfilm import loads
 from thinfilm.evolution import AltMinOptions, BacktrackOptions, Engine, SearchOptions
 from thinfilm.grid import Grid
+from thinfilm.imperfection import toughness_factor
 from thinfilm.io import PlateResultsWriter, write_plate_summary
 from thinfilm.linsolve import make_solver
 from thinfilm.model import PlateModel
@@ -90,6 +91,10 @@ def describe(scene):
                      f" -> winkler = K~/a^4 = {g['winkler']:.4g}, toughness = G~/a = {g['toughness']:.4g}")
     lines.append(f"decay length 1/lam = {1 / m.lam:.4g} (lam = {m.lam:.4g}, winkler = {m.winkler:.4g});"
                  f" eta = {m.eta:.4g} = {m.eta / dom.dx:.3g} dx; eta * lam = {m.eta * m.lam:.3g}")
+    if m.toughness_noise > 0:
+        lines.append(f"imperfect film: toughness G/a = {m.toughness:g} exp({m.toughness_noise:g} xi), xi Gaussian with"
+                     f" correlation length {m.toughness_noise_length:.4g} ({m.toughness_noise_length / dom.dx:.3g} dx),"
+                     f" seed {m.toughness_noise_seed}")
     return lines
 
 
@@ -99,9 +104,10 @@ def make_model(scene, grid):
     load = make_load(scene, grid)
     plate_nu = m.nu if grid.dim == 2 else 0.0
     symmetry = make_symmetry(scene, grid, load)
+    factor = toughness_factor(grid, m.toughness_noise, m.toughness_noise_length, m.toughness_noise_seed, symmetry)
     model = PlateModel(grid, plate_nu, m.winkler, m.k_res, m.eta, m.toughness, m.at, load.w,
                        proportional=load.proportional, linear_solver=None, clamped=load.clamped,
-                       trial_radius=m.eta, symmetry=symmetry)
+                       trial_radius=m.eta, symmetry=symmetry, toughness_factor=factor)
     coords = np.column_stack(grid.coordinates)
     if symmetry is not None:
         coords = coords[symmetry.representative]
@@ -258,7 +264,9 @@ def run_plate(scene, outdir, progress=lambda n: None, resume=False):
         log.info(f"grid sequencing: each step starts from the damage of {scene.solver.coarse}"
                  f" ({guess.t.size} steps) at the same load")
     results = outdir / "results.h5"
-    writer = PlateResultsWriter(results, scene, grid, resume=resume)
+    factor = model.damage.toughness_factor
+    writer = PlateResultsWriter(results, scene, grid, resume=resume,
+                                toughness=None if factor is None else scene.model.toughness * factor)
     history = writer.history(all_alpha=scene.solver.backtrack != "none") if resume else []
     if history:
         log.info(f"resuming {results} after step {len(history) - 1} (t = {history[-1].t:g})")

@@ -273,6 +273,13 @@ class PlateParameters:
         Regularization length (units of L).
     k_res : float
         Residual stiffness of ``g(alpha) = (1 - alpha)^2 + k_res``.
+    toughness_noise : float
+        Relative scatter ``s`` of a log-normal toughness field ``G exp(s xi)``
+        (:mod:`thinfilm.imperfection`); 0 for a uniform film.
+    toughness_noise_length : float
+        Correlation length of ``xi`` (units of L).
+    toughness_noise_seed : int
+        Seed of the random field.
     """
 
     at: int
@@ -281,6 +288,9 @@ class PlateParameters:
     toughness: float
     eta: float
     k_res: float
+    toughness_noise: float = 0.0
+    toughness_noise_length: float = 0.0
+    toughness_noise_seed: int = 0
 
     @property
     def winkler(self):
@@ -397,7 +407,8 @@ def _parse_plate(source, data, text):
         if not top.has(name):
             raise SceneError(source, name, f"missing table [{name}] (required)")
     model = _Table(source, "model", data["model"],
-                   ("kind", "at", "nu", "lam", "winkler", "toughness", "eta", "eta_dx", "k_res"))
+                   ("kind", "at", "nu", "lam", "winkler", "toughness", "eta", "eta_dx", "k_res", "toughness_noise",
+                    "toughness_noise_length", "toughness_noise_seed"))
     domain = _Table(source, "domain", data["domain"], ("x", "y", "cells", "symmetry"))
     load = _Table(source, "load", data["load"], ("kind", "t_max", "steps", "radius", "file", "name"))
     solver = _Table(source, "solver", data.get("solver", {}),
@@ -441,7 +452,15 @@ def _parse_plate(source, data, text):
         lam, toughness = float(lam_from_winkler(material.winkler)), material.toughness
     else:
         lam, toughness = _lam_or_winkler(model), model.number("toughness", minimum=0)
-    params = PlateParameters(at=at, nu=nu, lam=lam, toughness=toughness, eta=eta, k_res=k_res)
+    noise = model.number("toughness_noise", minimum=0, exclusive=False, default=0.0)
+    if noise > 2.0:
+        model._fail("toughness_noise", noise, "must be in [0, 2] (the scatter of log G; 2 spans a factor 50"
+                    " between the 2.5% and 97.5% quantiles)")
+    noise_length = model.number("toughness_noise_length", minimum=0, exclusive=False, default=eta)
+    noise_seed = model.integer("toughness_noise_seed", minimum=0, default=0)
+    params = PlateParameters(at=at, nu=nu, lam=lam, toughness=toughness, eta=eta, k_res=k_res,
+                             toughness_noise=noise, toughness_noise_length=noise_length,
+                             toughness_noise_seed=noise_seed)
 
     plate_load = _parse_load(source, load, dom)
 

@@ -2,8 +2,9 @@
 
 ``results.xdmf`` is light XML only: an XDMF 3 temporal collection with one grid per finished
 step (its ``Time`` the load t), each a uniform structured mesh with the node attributes
-``alpha`` and ``u``. The attributes point into ``/fields/alpha`` and ``/fields/u`` of the
-HDF5 file by hyperslab (row k of the ``(n_steps, n_nodes)`` dataset), so nothing is copied;
+``alpha`` and ``u`` (and ``toughness`` for an imperfect film). The attributes point into
+``/fields/alpha`` and ``/fields/u`` of the HDF5 file by hyperslab (row k of the
+``(n_steps, n_nodes)`` dataset; ``/fields/toughness`` whole), so nothing is copied;
 the HDF5 path is relative to the XDMF file, so the run directory can be moved whole.
 
 The mesh is a ``3DCoRectMesh`` of one layer in every case:
@@ -109,6 +110,7 @@ def build_xdmf(res, reference):
                         f" fields {', '.join(FIELDS)} by hyperslab from {reference}")
     collection = ET.SubElement(domain, "Grid", Name="evolution", GridType="Collection", CollectionType="Temporal")
     datasets = {name: f[f"fields/{name}"] for name in FIELDS}
+    toughness = f["fields"].get("toughness")
     for k in range(res.n):
         grid = ET.SubElement(collection, "Grid", Name=f"step {k}", GridType="Uniform")
         ET.SubElement(grid, "Time", Value=repr(float(res.t[k])))
@@ -132,6 +134,11 @@ def build_xdmf(res, reference):
             source = ET.SubElement(slab, "DataItem", Dimensions=f"{rows} {n_nodes}", NumberType="Float",
                                    Precision=str(ds.dtype.itemsize), Format="HDF")
             source.text = f"{reference}:/fields/{name}"
+        if toughness is not None:  # an imperfect film: the same field at every step
+            attribute = ET.SubElement(grid, "Attribute", Name="toughness", AttributeType="Scalar", Center="Node")
+            item = ET.SubElement(attribute, "DataItem", Dimensions=" ".join(map(str, dims)), NumberType="Float",
+                                 Precision=str(toughness.dtype.itemsize), Format="HDF")
+            item.text = f"{reference}:/fields/toughness"
     return root
 
 

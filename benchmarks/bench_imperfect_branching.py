@@ -1,0 +1,204 @@
+"""Branching under the small indenter in an imperfect film: the Fig. 2.14 evolutions with a
+random toughness field, against the perfect film.
+
+The perfect film's evolutions of ``cases/indentation_branching_*.toml`` pass through a
+D4-symmetric disk of damage and stay symmetric to round-off, ending as crosses along the
+grid axes, although at G/a = 1.5 a three-armed star is the lower state
+(``bench_branching_seeds.py``). A film whose toughness varies a little from place to place
+(``[model] toughness_noise``, :mod:`thinfilm.imperfection`) has no symmetry to stay on. This
+study runs each case's whole evolution for the perfect film and for several seeds of an
+imperfect one (the perfect film restricted to D4-symmetric fields, which its
+unrestricted evolution keeps to round-off), and reads the crack pattern at the case's snapshot loads: the cracks that
+cut a circle about the centre of the damage (:func:`thinfilm.cracks.arms`), their number
+and the angles between neighbours (three arms about 120 degrees apart make a star, 90-90-180
+a T, four about 90 apart a cross).
+
+The circle: about the junction of the broken nodes (alpha >= 0.9) inside 0.8 times the
+contact radius (so that a ring at the contact edge is left out), the broken node about
+which the most arms cut a circle of radius 2 eta and point the same ways on a circle twice
+as large (:func:`junction`); its radius 3 eta, or 0.6 times the distance to the farthest
+broken node if that is less (less than 2 eta: a spot, no arms).
+The gaps are the angles at which the arms leave the junction, read where the crack bands
+are a few eta wide and the junction a blob of damage, so they are good to 10-20 degrees:
+look at the figure too.
+
+Usage (defaults: the three cases as their files give them, eta = 2 dx on (-0.2, 0.2)^2,
+160^2 cells, toughness_noise = 0.05, correlation length eta, seeds 1 2 3; about 35 minutes)::
+
+    python benchmarks/bench_imperfect_branching.py
+    python benchmarks/bench_imperfect_branching.py --cases G15 --seeds 1 --fine   # eta = 5 dx, 360^2
+
+Writes ``benchmarks/results/imperfect_branching.md``, ``.csv`` and ``.png``; with
+``--fine``, ``imperfect_branching_fine.*``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # run from a checkout
+
+from thinfilm.cracks import CRACK_THRESHOLD, arms  # noqa: E402
+from thinfilm.loads import contact_radius  # noqa: E402
+from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
+from thinfilm.scene import parse_scene  # noqa: E402
+
+CASES = {"G20": "indentation_branching_G20.toml", "G15": "indentation_branching_G15.toml",
+         "G07": "indentation_branching_G07.toml"}
+# The dissertation's eta = 0.0033 = 5 dx (1500 nodes on (-0.5, 0.5)) on (-0.12, 0.12)^2.
+FINE = {"eta": "0.0033333333333333335", "x": "[-0.12, 0.12]", "y": "[-0.12, 0.12]", "cells": "[360, 360]"}
+
+
+def scene_text(name, noise, seed, fine):
+    """The case file's text, its whole ``key = value`` lines replaced as asked."""
+    text = (ROOT / "cases" / CASES[name]).read_text()
+    lines = dict(FINE) if fine else {}
+    for key, value in lines.items():
+        old = [line for line in text.splitlines() if line.split("=")[0].strip() == key]
+        assert len(old) == 1, f"{name}: no single line for {key}"
+        text = text.replace(old[0], f"{key} = {value}")
+    if noise > 0:
+        text = text.replace("k_res = 1e-6", f"k_res = 1e-6\ntoughness_noise = {noise}\ntoughness_noise_seed = {seed}")
+    else:
+        # Left unrestricted, the perfect film's evolution stays D4-symmetric to round-off
+        # (README, small indenter): the restricted run is the same evolution, 5-10x faster.
+        text = text.replace("[domain]", '[domain]\nsymmetry = "d4"')
+    return text
+
+
+def _mismatch(a, b):
+    """Sum over the directions ``a`` (degrees) of the angle to the nearest of ``b``."""
+    return sum(min(abs((u - v + 180.0) % 360.0 - 180.0) for v in b) for u in a)
+
+
+def junction(alpha, broken, x, y, reach):
+    """The broken node where the cracks meet: the most arms cut the circle of radius
+    ``reach`` about it, and they point the same ways on the circle of twice that radius
+    (straight arms radiate from their junction; from a node one row off, the directions
+    differ on the two circles)."""
+    best = None
+    for j, i in zip(*np.nonzero(broken)):
+        centre = (x[i], y[j])
+        near = arms(alpha, x, y, reach, centre=centre, samples=240)
+        far = arms(alpha, x, y, 2 * reach, centre=centre, samples=240)
+        key = (len(near), len(far) == len(near), -_mismatch(near, far) if len(far) else -np.inf)
+        if best is None or key > best[0]:
+            best = (key, centre)
+    return best[1]
+
+
+def pattern(alpha, x, y, inner_radius, eta):
+    """``(number of arms, sorted gaps between neighbouring arms in degrees)`` about the
+    junction of the broken nodes inside ``inner_radius`` (see the module docstring)."""
+    X, Y = np.meshgrid(x, y)
+    broken = (alpha >= CRACK_THRESHOLD) & (np.hypot(X, Y) < inner_radius)
+    if not broken.any():
+        return 0, []
+    cx, cy = junction(alpha, broken, x, y, 2 * eta)
+    reach = np.hypot(X[broken] - cx, Y[broken] - cy).max()
+    if reach < 2 * eta:
+        return 0, []   # a spot, not yet arms
+    radius = min(3 * eta, 0.6 * reach)   # where the arms leave the junction (they may curve further out)
+    directions = np.sort(arms(alpha, x, y, radius, centre=(cx, cy)))
+    if len(directions) < 2:
+        return len(directions), []
+    gaps = np.diff(np.r_[directions, directions[0] + 360.0])
+    return len(directions), sorted(np.round(gaps).astype(int).tolist())
+
+
+def run(name, noise, seed, fine):
+    scene = parse_scene(scene_text(name, noise, seed, fine), source=f"<{name}>")
+    grid = build_grid(scene.domain)
+    model = make_model(scene, grid)
+    engine = make_engine(scene, model)
+    t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
+    start = time.perf_counter()
+    records, states = engine.run(t_values)
+    seconds = time.perf_counter() - start
+    x, y = np.asarray(grid.x), np.asarray(grid.y)
+    out = []
+    for t_snap in scene.snapshots:
+        k = int(np.argmin(np.abs(t_values - t_snap)))
+        alpha = states[k].alpha.reshape(grid.ny + 1, grid.nx + 1)
+        n_arms, gaps = pattern(alpha, x, y, 0.8 * contact_radius(scene.load.radius, t_values[k]), scene.model.eta)
+        out.append({"case": name, "toughness": scene.model.toughness, "noise": noise, "seed": seed if noise else "-",
+                    "t": round(float(t_values[k]), 6), "arms": n_arms, "gaps": " ".join(map(str, gaps)),
+                    "total": states[k].total, "iterations": sum(r.iterations for r in records),
+                    "seconds": seconds})
+    final = states[-1].alpha.reshape(grid.ny + 1, grid.nx + 1)
+    return out, final, (x, y)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
+    parser.add_argument("--noise", type=float, default=0.05, help="toughness_noise of the imperfect films")
+    parser.add_argument("--fine", action="store_true", help="eta = 5 dx: 360^2 cells on (-0.12, 0.12)^2")
+    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    args = parser.parse_args(argv)
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    runs = [(0.0, 0)] + [(args.noise, s) for s in args.seeds]
+    rows = []
+    fig, axes = plt.subplots(len(args.cases), len(runs), figsize=(2.6 * len(runs), 2.6 * len(args.cases)),
+                             squeeze=False)
+    for axes_row, name in zip(axes, args.cases):
+        for ax, (noise, seed) in zip(axes_row, runs):
+            case_rows, final, (x, y) = run(name, noise, seed, args.fine)
+            rows += case_rows
+            last = case_rows[-1]
+            print(f"{name} noise {noise} seed {seed}: " + "; ".join(
+                f"t = {r['t']:g}: {r['arms']} arms, gaps {r['gaps'] or '-'}" for r in case_rows)
+                + f" ({last['iterations']} iterations, {last['seconds']:.0f} s)", flush=True)
+            ax.imshow(final, origin="lower", extent=[x[0], x[-1], y[0], y[-1]], cmap="magma_r", vmin=0, vmax=1)
+            ax.set_xlim(-0.07, 0.07)
+            ax.set_ylim(-0.07, 0.07)
+            ax.set_xticks([])
+            ax.set_yticks([])
+            label = "perfect" if noise == 0 else f"s = {noise:g}, seed {seed}"
+            ax.set_title(f"{name}, {label}\nt = {last['t']:g}: {last['arms']} arms", fontsize=8)
+    suffix = "_fine" if args.fine else ""
+    args.out.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(args.out / f"imperfect_branching{suffix}.png", dpi=90)
+
+    with open(args.out / f"imperfect_branching{suffix}.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    command = (f"python benchmarks/bench_imperfect_branching.py --cases {' '.join(args.cases)} --seeds "
+               f"{' '.join(map(str, args.seeds))} --noise {args.noise:g}{' --fine' if args.fine else ''}")
+    lines = [
+        "# Branching in an imperfect film (Fig. 2.14 evolutions)",
+        "",
+        f"`{command}` ({platform.machine()}, Python {platform.python_version()}). "
+        "Arms: cracks cutting a circle about the centre of the damage; gaps: angles between neighbouring "
+        "arms (degrees). The perfect film (noise 0) runs restricted to D4-symmetric fields, the imperfect "
+        "ones unrestricted; time and iterations are the whole evolution's.",
+        "",
+        "| case | G/a | noise | seed | t | arms | gaps | total energy | iterations | time (s) |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for row in rows:
+        lines.append(f"| {row['case']} | {row['toughness']:g} | {row['noise']:g} | {row['seed']} | {row['t']:g} | "
+                     f"{row['arms']} | {row['gaps'] or '-'} | {row['total']:.5f} | {row['iterations']} | "
+                     f"{row['seconds']:.0f} |")
+    (args.out / f"imperfect_branching{suffix}.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
