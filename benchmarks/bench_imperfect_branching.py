@@ -23,7 +23,8 @@ are a few eta wide and the junction a blob of damage, so they are good to 10-20 
 look at the figure too.
 
 Usage (defaults: the three cases as their files give them, eta = 2 dx on (-0.2, 0.2)^2,
-160^2 cells, toughness_noise = 0.05, correlation length eta, seeds 1 2 3; about 35 minutes)::
+160^2 cells, toughness_noise = 0.05, correlation length eta, seeds 1 2 3; 11 minutes;
+with --fine and seeds 1 2, 50 minutes)::
 
     python benchmarks/bench_imperfect_branching.py
     python benchmarks/bench_imperfect_branching.py --cases G15 --seeds 1 --fine   # eta = 5 dx, 360^2
@@ -185,7 +186,7 @@ def main(argv=None):
         "# Branching in an imperfect film (Fig. 2.14 evolutions)",
         "",
         f"`{command}` ({platform.machine()}, Python {platform.python_version()}). "
-        "Arms: cracks cutting a circle about the centre of the damage; gaps: angles between neighbouring "
+        "Arms: cracks cutting a circle of radius 3 eta about the junction of the damage; gaps: angles between neighbouring "
         "arms (degrees). The perfect film (noise 0) runs restricted to D4-symmetric fields, the imperfect "
         "ones unrestricted; time and iterations are the whole evolution's.",
         "",
