@@ -9,7 +9,7 @@ grid axes, although at G/a = 1.5 a three-armed star is the lower state
 study runs each case's whole evolution for the perfect film and for several seeds of an
 imperfect one (the perfect film restricted to D4-symmetric fields, which its
 unrestricted evolution keeps to round-off), and reads the crack pattern at the case's snapshot loads: the cracks that
-cut a circle about the centre of the damage (:func:`thinfilm.cracks.arms`), their number
+cut a circle about the junction of the damage (:func:`thinfilm.cracks.arms`), their number
 and the angles between neighbours (three arms about 120 degrees apart make a star, 90-90-180
 a T, four about 90 apart a cross).
 

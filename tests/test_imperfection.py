@@ -185,6 +185,7 @@ def test_run_stores_the_toughness_field_and_resume_checks_it(tmp_path, capsys):
     ("toughness_noise = -0.1", "model.toughness_noise = -0.1: must be >= 0"),
     ("toughness_noise = 3.0", "model.toughness_noise = 3.0: must be in [0, 2]"),
     ("toughness_noise_length = -1.0", "model.toughness_noise_length = -1.0: must be >= 0"),
+    ("toughness_noise_length = 0.5", "model.toughness_noise_length = 0.5: must be in [0, 0.12] (the domain's size)"),
     ("toughness_noise_seed = 1.5", "model.toughness_noise_seed = 1.5: must be an integer"),
 ])
 def test_bad_noise_keys_are_one_line_exit_2(tmp_path, capsys, line, message):

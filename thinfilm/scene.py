@@ -457,6 +457,11 @@ def _parse_plate(source, data, text):
         model._fail("toughness_noise", noise, "must be in [0, 2] (the scatter of log G; 2 spans a factor 50"
                     " between the 2.5% and 97.5% quantiles)")
     noise_length = model.number("toughness_noise_length", minimum=0, exclusive=False, default=eta)
+    size = max(x[1] - x[0], (y[1] - y[0]) if y else 0.0)
+    if noise_length > size:
+        # (longer correlations make a field that is nearly uniform over the film, and a
+        # smoothing kernel larger than the grid)
+        model._fail("toughness_noise_length", noise_length, f"must be in [0, {size:g}] (the domain's size)")
     noise_seed = model.integer("toughness_noise_seed", minimum=0, default=0)
     params = PlateParameters(at=at, nu=nu, lam=lam, toughness=toughness, eta=eta, k_res=k_res,
                              toughness_noise=noise, toughness_noise_length=noise_length,
