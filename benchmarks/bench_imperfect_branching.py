@@ -67,12 +67,13 @@ def scene_text(name, noise, seed, fine):
         assert len(old) == 1, f"{name}: no single line for {key}"
         text = text.replace(old[0], f"{key} = {value}")
     if noise > 0:
-        text = text.replace("k_res = 1e-6", f"k_res = 1e-6\ntoughness_noise = {noise}\ntoughness_noise_seed = {seed}")
+        anchor, added = "k_res = 1e-6", f"\ntoughness_noise = {noise}\ntoughness_noise_seed = {seed}"
     else:
         # Left unrestricted, the perfect film's evolution stays D4-symmetric to round-off
         # (README, small indenter): the restricted run is the same evolution, 5-10x faster.
-        text = text.replace("[domain]", '[domain]\nsymmetry = "d4"')
-    return text
+        anchor, added = "[domain]", '\nsymmetry = "d4"'
+    assert text.count(anchor) == 1, f"{name}: no single line {anchor!r} to add {added.strip()!r} after"
+    return text.replace(anchor, anchor + added)
 
 
 def _mismatch(a, b):

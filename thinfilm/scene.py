@@ -454,8 +454,8 @@ def _parse_plate(source, data, text):
         lam, toughness = _lam_or_winkler(model), model.number("toughness", minimum=0)
     noise = model.number("toughness_noise", minimum=0, exclusive=False, default=0.0)
     if noise > 2.0:
-        model._fail("toughness_noise", noise, "must be in [0, 2] (the scatter of log G; 2 spans a factor 50"
-                    " between the 2.5% and 97.5% quantiles)")
+        model._fail("toughness_noise", noise, "must be in [0, 2] (the scatter of log G; 2 already puts a factor"
+                    " 2500 between the 2.5% and 97.5% quantiles of G)")
     noise_length = model.number("toughness_noise_length", minimum=0, exclusive=False, default=eta)
     size = max(x[1] - x[0], (y[1] - y[0]) if y else 0.0)
     if noise_length > size:
