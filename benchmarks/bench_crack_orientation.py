@@ -21,7 +21,11 @@ pays). The disk keeps the free edges 3.8 decay lengths away (doubling the square
 ``release`` by less than 2e-3 of itself).
 
 For each ``eta / h`` in (5, 10, 20) the table lists ``release`` at each angle and the spread
-(largest minus smallest over the mean), and the fitted order of the spread in ``h``.
+(largest minus smallest over the mean), and the fitted order of the spread in ``h``. A second
+table splits ``release`` into its parts: the bending energy at the nodes (``g_n omega_n Q_n / 2``),
+the twist at the cell centres (each node taking ``g_n`` times a quarter of its four cells', as
+:func:`thinfilm.energy.nodal_energy` shares it), the foundation and the surface energy, to show
+which term of the discrete energy the bias comes from.
 
 Usage::
 
@@ -45,7 +49,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
-from thinfilm.energy import nodal_energy  # noqa: E402
+from thinfilm.energy import bending_density, nodal_energy  # noqa: E402
 from thinfilm.grid import Grid  # noqa: E402
 from thinfilm.linsolve import make_solver  # noqa: E402
 from thinfilm.model import crack_profile  # noqa: E402
@@ -57,8 +61,34 @@ ETA = 0.0075
 LOAD_T = 10.0
 DISK_RADIUS = 0.06
 # (label, angle in degrees, offset of the line in units of h)
+PARTS = ("bending", "twist", "foundation", "surface")
 BANDS = [("0 (on a node row)", 0.0, 0.0), ("0 (between rows)", 0.0, 0.5), ("10", 10.0, 0.0),
          ("22.5", 22.5, 0.0), ("30", 30.0, 0.0), ("45 (on a diagonal)", 45.0, 0.0)]
+
+
+def energy_parts(plate, damage, u, alpha, w):
+    """The energy at each node split into ``(bending, twist, foundation, surface)``, each of
+    shape ``(n_nodes,)``, summing to :func:`nodal_energy`.
+
+    The twist share of node ``n`` is ``g_n / 2`` times a quarter of ``hx hy 2 (1 - nu) d_c^2``
+    summed over its cells (interior formula: the disk of the study is far from the edges);
+    the bending share is the rest of ``g_n e_n / 2``.
+    """
+    grid = plate.grid
+    ny, nx = grid.ny + 1, grid.nx + 1
+    g = plate.degradation(alpha)
+    U = u.reshape(ny, nx)
+    d = (U[:-1, :-1] - U[:-1, 1:] - U[1:, :-1] + U[1:, 1:]) / (grid.hx * grid.hy)
+    cell = grid.hx * grid.hy * 2 * (1 - plate.nu) * d**2
+    quarter = np.zeros((ny, nx))
+    for dj, di in ((0, 0), (0, 1), (1, 0), (1, 1)):
+        quarter[dj:dj + ny - 1, di:di + nx - 1] += cell / 4
+    twist = 0.5 * g * quarter.ravel()
+    total = nodal_energy(plate, damage, u, alpha, w)
+    foundation = 0.5 * plate.winkler * grid.weights * (u - w) ** 2
+    bending = 0.5 * g * bending_density(plate, u) - twist
+    surface = total - bending - twist - foundation
+    return bending, twist, foundation, surface
 
 
 def release_per_length(ratio):
@@ -86,7 +116,9 @@ def release_per_length(ratio):
         alpha = crack_profile(np.abs(s - offset * grid.hx), ETA, 1)
         u1, _ = damaged(plate.matrix(alpha), f)
         change = (nodal_energy(plate, damage, u1, alpha, w) - nodal_energy(plate, damage, u0, zero, w))[disk].sum()
-        out.append((label, float(change) / (2 * DISK_RADIUS), time.perf_counter() - start))
+        parts = [float((after - before)[disk].sum()) / (2 * DISK_RADIUS) for after, before in
+                 zip(energy_parts(plate, damage, u1, alpha, w), energy_parts(plate, damage, u0, zero, w))]
+        out.append((label, float(change) / (2 * DISK_RADIUS), time.perf_counter() - start, parts))
     return n, out
 
 
@@ -101,8 +133,9 @@ def main(argv=None):
         values = np.array([r[1] for r in results])
         spread = (values.max() - values.min()) / abs(values.mean())
         spreads.append(spread)
-        for label, value, seconds in results:
-            rows.append({"eta_over_h": ratio, "cells": n, "band": label, "release": value, "seconds": seconds})
+        for label, value, seconds, parts in results:
+            rows.append({"eta_over_h": ratio, "cells": n, "band": label, "release": value,
+                         **dict(zip(PARTS, parts)), "seconds": seconds})
         print(f"eta/h = {ratio}: {n}^2 cells, spread {spread:.4f}", flush=True)
 
     args.out.mkdir(parents=True, exist_ok=True)
@@ -130,6 +163,17 @@ def main(argv=None):
         h = ETA / np.array(args.ratios, dtype=float)
         order = np.polyfit(np.log(h), np.log(spreads), 1)[0]
         lines += ["", f"Fitted order of the spread in h: {order:.2f}."]
+    lines += ["", "Parts of the energy change per unit length (bending at the nodes, twist at the cell "
+              "centres, foundation, surface) and their sum; last line, the largest minus the smallest over the "
+              "bands:", "", "| eta / h | band | " + " | ".join(PARTS) + " | bending + twist | total |",
+              "|---|---|" + "---|" * (len(PARTS) + 2)]
+    for ratio in args.ratios:
+        sub = [r for r in rows if r["eta_over_h"] == ratio]
+        table = np.array([[r[p] for p in PARTS] + [r["bending"] + r["twist"], r["release"]] for r in sub])
+        for r, values in zip(sub, table):
+            lines.append(f"| {ratio} | {r['band']} | " + " | ".join(f"{v:+.4f}" for v in values) + " |")
+        lines.append(f"| {ratio} | **max - min** | " + " | ".join(f"**{v:.4f}**" for v in np.ptp(table, axis=0))
+                     + " |")
     (args.out / "crack_orientation.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

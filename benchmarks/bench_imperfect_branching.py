@@ -28,9 +28,18 @@ with --fine and seeds 1 2, 50 minutes)::
 
     python benchmarks/bench_imperfect_branching.py
     python benchmarks/bench_imperfect_branching.py --cases G15 --seeds 1 --fine   # eta = 5 dx, 360^2
+    python benchmarks/bench_imperfect_branching.py --cases G15 --seeds 1 --finer  # eta = 10 dx, 720^2
+    python benchmarks/bench_imperfect_branching.py --fine --stability  # the perfect film, checked
+
+With ``--stability`` the study runs, instead of imperfect films, the perfect film unrestricted
+with ``[solver] stability = true`` (:mod:`thinfilm.stability`): its evolution leaves the
+symmetric states that are saddles along their most unstable mode.
 
 Writes ``benchmarks/results/imperfect_branching.md``, ``.csv`` and ``.png``; with
-``--fine``, ``imperfect_branching_fine.*``.
+``--fine`` or ``--finer``, ``imperfect_branching_fine.*`` or ``_finer.*``. A study of some of
+the cases only adds their names to the file name (``imperfect_branching_fine_G15.*``), a
+noise other than 0.05 adds it too (``_s0.01``), and ``--stability`` adds ``_stability``, so
+that none overwrites the whole study.
 """
 
 from __future__ import annotations
@@ -56,17 +65,24 @@ CASES = {"G20": "indentation_branching_G20.toml", "G15": "indentation_branching_
          "G07": "indentation_branching_G07.toml"}
 # The dissertation's eta = 0.0033 = 5 dx (1500 nodes on (-0.5, 0.5)) on (-0.12, 0.12)^2.
 FINE = {"eta": "0.0033333333333333335", "x": "[-0.12, 0.12]", "y": "[-0.12, 0.12]", "cells": "[360, 360]"}
+# The same eta on a grid twice as fine, eta = 10 dx: half the grid's bias for the axes
+# (bench_crack_orientation.py).
+FINER = dict(FINE, cells="[720, 720]")
 
 
-def scene_text(name, noise, seed, fine):
-    """The case file's text, its whole ``key = value`` lines replaced as asked."""
+def scene_text(name, noise, seed, grid_lines, checked=False):
+    """The case file's text, its whole ``key = value`` lines replaced by ``grid_lines``
+    (a dict, empty for the case file's own grid) and the noise or symmetry keys added;
+    ``checked``: the perfect film, unrestricted, with the stability check."""
     text = (ROOT / "cases" / CASES[name]).read_text()
-    lines = dict(FINE) if fine else {}
+    lines = dict(grid_lines)
     for key, value in lines.items():
         old = [line for line in text.splitlines() if line.split("=")[0].strip() == key]
         assert len(old) == 1, f"{name}: no single line for {key}"
         text = text.replace(old[0], f"{key} = {value}")
-    if noise > 0:
+    if checked:
+        anchor, added = "[solver]", "\nstability = true"
+    elif noise > 0:
         anchor, added = "k_res = 1e-6", f"\ntoughness_noise = {noise}\ntoughness_noise_seed = {seed}"
     else:
         # Left unrestricted, the perfect film's evolution stays D4-symmetric to round-off
@@ -116,8 +132,8 @@ def pattern(alpha, x, y, inner_radius, eta):
     return len(directions), sorted(np.round(gaps).astype(int).tolist())
 
 
-def run(name, noise, seed, fine):
-    scene = parse_scene(scene_text(name, noise, seed, fine), source=f"<{name}>")
+def run(name, noise, seed, grid_lines, checked=False):
+    scene = parse_scene(scene_text(name, noise, seed, grid_lines, checked), source=f"<{name}>")
     grid = build_grid(scene.domain)
     model = make_model(scene, grid)
     engine = make_engine(scene, model)
@@ -131,7 +147,8 @@ def run(name, noise, seed, fine):
         k = int(np.argmin(np.abs(t_values - t_snap)))
         alpha = states[k].alpha.reshape(grid.ny + 1, grid.nx + 1)
         n_arms, gaps = pattern(alpha, x, y, 0.8 * contact_radius(scene.load.radius, t_values[k]), scene.model.eta)
-        out.append({"case": name, "toughness": scene.model.toughness, "noise": noise, "seed": seed if noise else "-",
+        out.append({"case": name, "toughness": scene.model.toughness, "noise": noise,
+                    "seed": seed if noise else ("stability" if checked else "-"),
                     "t": round(float(t_values[k]), 6), "arms": n_arms, "gaps": " ".join(map(str, gaps)),
                     "total": states[k].total, "iterations": sum(r.iterations for r in records),
                     "seconds": seconds})
@@ -144,7 +161,11 @@ def main(argv=None):
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     parser.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3])
     parser.add_argument("--noise", type=float, default=0.05, help="toughness_noise of the imperfect films")
-    parser.add_argument("--fine", action="store_true", help="eta = 5 dx: 360^2 cells on (-0.12, 0.12)^2")
+    resolution = parser.add_mutually_exclusive_group()
+    resolution.add_argument("--fine", action="store_true", help="eta = 5 dx: 360^2 cells on (-0.12, 0.12)^2")
+    resolution.add_argument("--finer", action="store_true", help="eta = 10 dx: 720^2 cells on (-0.12, 0.12)^2")
+    parser.add_argument("--stability", action="store_true",
+                        help="instead of imperfect films, the perfect film unrestricted with [solver] stability = true")
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     args = parser.parse_args(argv)
 
@@ -153,16 +174,25 @@ def main(argv=None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    runs = [(0.0, 0)] + [(args.noise, s) for s in args.seeds]
+    grid_lines, suffix = (FINER, "_finer") if args.finer else (FINE, "_fine") if args.fine else ({}, "")
+    if args.cases != list(CASES):   # a partial study does not overwrite the whole one
+        suffix += "_" + "_".join(args.cases)
+    if args.stability:
+        suffix += "_stability"
+        runs = [(0.0, 0, False), (0.0, 0, True)]
+    else:
+        if args.noise != 0.05:
+            suffix += f"_s{args.noise:g}"
+        runs = [(0.0, 0, False)] + [(args.noise, s, False) for s in args.seeds]
     rows = []
     fig, axes = plt.subplots(len(args.cases), len(runs), figsize=(2.6 * len(runs), 2.6 * len(args.cases)),
                              squeeze=False)
     for axes_row, name in zip(axes, args.cases):
-        for ax, (noise, seed) in zip(axes_row, runs):
-            case_rows, final, (x, y) = run(name, noise, seed, args.fine)
+        for ax, (noise, seed, checked) in zip(axes_row, runs):
+            case_rows, final, (x, y) = run(name, noise, seed, grid_lines, checked)
             rows += case_rows
             last = case_rows[-1]
-            print(f"{name} noise {noise} seed {seed}: " + "; ".join(
+            print(f"{name} noise {noise} seed {seed}{' stability' if checked else ''}: " + "; ".join(
                 f"t = {r['t']:g}: {r['arms']} arms, gaps {r['gaps'] or '-'}" for r in case_rows)
                 + f" ({last['iterations']} iterations, {last['seconds']:.0f} s)", flush=True)
             ax.imshow(final, origin="lower", extent=[x[0], x[-1], y[0], y[-1]], cmap="magma_r", vmin=0, vmax=1)
@@ -170,9 +200,8 @@ def main(argv=None):
             ax.set_ylim(-0.07, 0.07)
             ax.set_xticks([])
             ax.set_yticks([])
-            label = "perfect" if noise == 0 else f"s = {noise:g}, seed {seed}"
+            label = ("perfect, stability check" if checked else "perfect") if noise == 0 else f"s = {noise:g}, seed {seed}"
             ax.set_title(f"{name}, {label}\nt = {last['t']:g}: {last['arms']} arms", fontsize=8)
-    suffix = "_fine" if args.fine else ""
     args.out.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
     fig.savefig(args.out / f"imperfect_branching{suffix}.png", dpi=90)
@@ -181,15 +210,18 @@ def main(argv=None):
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    command = (f"python benchmarks/bench_imperfect_branching.py --cases {' '.join(args.cases)} --seeds "
-               f"{' '.join(map(str, args.seeds))} --noise {args.noise:g}{' --fine' if args.fine else ''}")
+    resolution_flag = " --fine" if args.fine else " --finer" if args.finer else ""
+    command = (f"python benchmarks/bench_imperfect_branching.py --cases {' '.join(args.cases)}"
+               + (" --stability" if args.stability else
+                  f" --seeds {' '.join(map(str, args.seeds))} --noise {args.noise:g}") + resolution_flag)
     lines = [
         "# Branching in an imperfect film (Fig. 2.14 evolutions)",
         "",
         f"`{command}` ({platform.machine()}, Python {platform.python_version()}). "
         "Arms: cracks cutting a circle of radius 3 eta about the junction of the damage; gaps: angles between neighbouring "
-        "arms (degrees). The perfect film (noise 0) runs restricted to D4-symmetric fields, the imperfect "
-        "ones unrestricted; time and iterations are the whole evolution's.",
+        "arms (degrees). The perfect film (noise 0, seed -) runs restricted to D4-symmetric fields, the imperfect "
+        "ones and the perfect film with the stability check (seed: stability) unrestricted; time and iterations are "
+        "the whole evolution's (with the stability check's).",
         "",
         "| case | G/a | noise | seed | t | arms | gaps | total energy | iterations | time (s) |",
         "|---|---|---|---|---|---|---|---|---|---|",

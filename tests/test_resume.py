@@ -145,3 +145,23 @@ def test_resume_refuses_a_different_scene(reference, tmp_path, capsys):
     other.write_text(SCENE.replace("toughness = 0.05", "toughness = 0.06"))
     assert main(["run", str(other), "--out", str(out), "--resume", "--quiet"]) == 2
     assert "different scene" in capsys.readouterr().err
+
+
+def test_resume_a_file_written_before_the_stability_records(reference, tmp_path):
+    """A results file without /steps/lowest_curvature and saddles_left (written before they
+    existed) resumes: the new records are added, unrecorded (NaN, 0) for its old steps."""
+    scene, (steps, alpha, _) = reference
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
+    with h5py.File(out / "results.h5", "r+") as f:
+        for name in ("lowest_curvature", "saddles_left"):
+            del f["steps"][name]
+        for ds in f["steps"].values():
+            ds.resize((30,))
+        for name in ("u", "alpha"):
+            f["fields"][name].resize((30, f["fields"][name].shape[1]))
+    assert main(["run", str(scene), "--out", str(out), "--resume", "--quiet"]) == 0
+    got_steps, got_alpha, _ = _fields(out / "results.h5")
+    np.testing.assert_allclose(got_steps["total"], steps["total"], rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(got_alpha, alpha, rtol=0, atol=1e-12)
+    assert np.all(np.isnan(got_steps["lowest_curvature"])) and not got_steps["saddles_left"].any()

@@ -74,6 +74,11 @@ class FractureModel(Protocol):
     def trial_states(self, u: np.ndarray, alpha: np.ndarray, t: float) -> Sequence[np.ndarray]:
         """Damage fields with one trial crack each, for the nucleation search."""
 
+    # Optional, for the stability check (StabilityOptions):
+    # ``stability_modes(u, alpha, t, lower, k) -> (lowest, modes)``, the lowest curvature of
+    # the reduced energy on the free damage nodes (units of toughness / eta) and the ``k``
+    # lowest modes, shape (k, n_alpha), the first the most unstable.
+    #
     # Optional, for a model whose damage is restricted to a subset (symmetric fields):
     # ``project_lower(lower) -> lower``, the least admissible bound above ``lower``, applied
     # once per load step; ``project_alpha(alpha) -> alpha``, applied after every alpha-solve
@@ -200,6 +205,40 @@ class SearchOptions:
 
 
 @dataclass
+class StabilityOptions:
+    """Leaving saddles: a second-order check of every converged state (:mod:`thinfilm.stability`).
+
+    After a load step converges, the lowest curvatures of the reduced energy on the free
+    damage nodes are computed. If the lowest is below ``-tol`` (units of the model's
+    ``toughness / eta``), the state is a saddle: the damage is moved along the most unstable
+    mode, both ways, by the step of at most ``amplitude`` that lowers the energy most
+    (``Engine._descent_along``), alternate minimization is restarted from there, and its
+    result is kept if it lowers the energy by more than ``delta``; then the new state is
+    checked, at most ``rounds`` times per load step. The check's time counts in the step's
+    ``time_total``.
+
+    Attributes
+    ----------
+    enabled : bool
+    tol : float
+    amplitude : float
+        Largest change of alpha of the perturbation.
+    delta : float
+    rounds : int
+    modes : int
+        Eigenpairs computed (the lowest is followed; a block of a few helps LOBPCG with the
+        pairs of equal eigenvalues that symmetric states have).
+    """
+
+    enabled: bool = False
+    tol: float = 1e-3
+    amplitude: float = 0.1
+    delta: float = 1e-9
+    rounds: int = 3
+    modes: int = 4
+
+
+@dataclass
 class StepRecord:
     """What happened at one load step (the last time it was computed).
 
@@ -219,10 +258,17 @@ class StepRecord:
     backtracks : int
         Backtracks that went back to this step and restarted it.
     trials, trials_accepted : int
-        Nucleation-search trials tried and kept.
+        Trials tried and kept: those of the nucleation search and the restarts of the
+        stability check.
     extrapolations_rejected : int
         Accelerated damage updates that raised the energy and were undone (each cost one
         u-solve).
+    lowest_curvature : float
+        With the stability check: the lowest curvature of the reduced energy at the kept
+        state, in units of ``toughness / eta`` (negative: a saddle that could not be left
+        in the rounds allowed); NaN without it.
+    saddles_left : int
+        Saddles the stability check left at this step.
     time_u, time_alpha, time_total : float
         Wall-clock seconds in u-solves, alpha-solves and in the whole step.
     energy_history : list of float
@@ -244,6 +290,8 @@ class StepRecord:
     time_alpha: float = 0.0
     time_total: float = 0.0
     extrapolations_rejected: int = 0
+    lowest_curvature: float = math.nan
+    saddles_left: int = 0
     energy_history: list = field(default_factory=list)
 
 
@@ -285,7 +333,8 @@ class Engine:
         If backtracking is asked for a load that is not proportional to ``t``.
     """
 
-    def __init__(self, model, altmin=AltMinOptions(), backtrack=BacktrackOptions(), search=SearchOptions()):
+    def __init__(self, model, altmin=AltMinOptions(), backtrack=BacktrackOptions(), search=SearchOptions(),
+                 stability=StabilityOptions()):
         if backtrack.kind not in ("none", "standard", "deep"):
             raise ValueError(f"backtrack.kind = {backtrack.kind!r}: must be one of none, standard, deep")
         if backtrack.kind != "none" and not model.proportional:
@@ -301,14 +350,18 @@ class Engine:
             raise ValueError(f"omega_tail = {altmin.omega_tail}: must be >= 1")
         if not altmin.omega_growth > 1.0:
             raise ValueError(f"omega_growth = {altmin.omega_growth}: must be > 1")
+        if stability.enabled and not callable(getattr(model, "stability_modes", None)):
+            raise ValueError("stability check asked for a model without stability_modes")
         self.model, self.altmin, self.backtrack, self.search = model, altmin, backtrack, search
+        self.stability = stability
         # u of the last solve and the alpha/t it was computed for: with a proportional load
         # and unchanged alpha the next u is a multiple of it, no solve needed.
         self._u_cache = None
         #: Work done by the whole evolution, including steps later undone by backtracking and
         #: rejected trials: alternate-minimization iterations, linear solves, backtracks,
         #: nucleation trials tried and accepted.
-        self.work = {"iterations": 0, "u_solves": 0, "backtracks": 0, "trials": 0, "trials_accepted": 0}
+        self.work = {"iterations": 0, "u_solves": 0, "backtracks": 0, "trials": 0, "trials_accepted": 0,
+                     "saddles_left": 0}
 
     # -- the two half-steps ---------------------------------------------------------------
     def _solve_u(self, alpha, t, u0, rtol, record):
@@ -520,15 +573,7 @@ class Engine:
         for _ in range(self.search.rounds):
             improved = False
             for trial_alpha in self.model.trial_states(best.u, best.alpha, best.t):
-                record.trials += 1
-                self.work["trials"] += 1
-                trial_record = StepRecord(step, best.t)
-                trial = self.alternate_minimization(best.t, np.maximum(trial_alpha, lower), lower, best.u,
-                                                    trial_record, step)
-                record.u_solves += trial_record.u_solves
-                record.u_solves_skipped += trial_record.u_solves_skipped
-                record.time_u += trial_record.time_u
-                record.time_alpha += trial_record.time_alpha
+                trial, trial_record = self._trial(best, trial_alpha, lower, record, step)
                 if trial.total < best.total - self.search.delta:
                     best, improved, best_cache = trial, True, self._u_cache
                     record.trials_accepted += 1
@@ -538,6 +583,68 @@ class Engine:
                 break
         self._u_cache = best_cache
         return best
+
+    def _trial(self, best, trial_alpha, lower, record, step):
+        """Alternate minimization at ``best.t`` from ``trial_alpha`` (raised to ``lower``);
+        its work is added to ``record``'s (its iterations only if the caller keeps it)."""
+        record.trials += 1
+        self.work["trials"] += 1
+        trial_record = StepRecord(step, best.t)
+        trial = self.alternate_minimization(best.t, np.maximum(trial_alpha, lower), lower, best.u,
+                                            trial_record, step)
+        record.u_solves += trial_record.u_solves
+        record.u_solves_skipped += trial_record.u_solves_skipped
+        record.time_u += trial_record.time_u
+        record.time_alpha += trial_record.time_alpha
+        return trial, trial_record
+
+    def _leave_saddles(self, state, lower, record, step):
+        """The stability check (:class:`StabilityOptions`) from a converged state; returns
+        the state kept and records its lowest curvature."""
+        opts = self.stability
+        best, best_cache = state, self._u_cache
+        for round_ in range(opts.rounds + 1):
+            lowest, modes = self.model.stability_modes(best.u, best.alpha, best.t, lower, opts.modes)
+            record.lowest_curvature = lowest
+            if lowest >= -opts.tol or round_ == opts.rounds:
+                break
+            start = self._descent_along(best, modes[0], lower, record)
+            if start is None:
+                break
+            trial, trial_record = self._trial(best, start, lower, record, step)
+            if not trial.total < best.total - opts.delta:
+                break
+            best, best_cache = trial, self._u_cache
+            record.iterations += trial_record.iterations
+            record.trials_accepted += 1
+            record.saddles_left += 1
+            self.work["trials_accepted"] += 1
+            self.work["saddles_left"] += 1
+        self._u_cache = best_cache
+        return best
+
+    def _descent_along(self, state, mode, lower, record):
+        """The damage ``clip(alpha + s mode, lower, 1)`` of least reduced energy over the steps
+        ``s = +-amplitude 2^-j``, ``j = 0..6``, if it is below the state's; else None.
+
+        Irreversibility cuts the mode where it would lower alpha by more than this step has
+        raised it, so the best step is searched for rather than fixed: a step too long
+        leaves the unstable direction, one too short gains too little for alternate
+        minimization to move on from (one u-solve per step tried).
+        """
+        best_alpha, best_total = None, state.total - self.stability.delta
+        for sign in (1.0, -1.0):
+            for j in range(7):
+                alpha = np.clip(state.alpha + sign * self.stability.amplitude * 0.5**j * mode, lower, 1.0)
+                started = time.perf_counter()
+                u = self.model.solve_u(alpha, state.t, state.u, self.altmin.u_rtol_min)
+                record.time_u += time.perf_counter() - started
+                record.u_solves += 1
+                self.work["u_solves"] += 1
+                total = sum(self.model.energies(u, alpha, state.t))
+                if total < best_total:
+                    best_alpha, best_total = alpha, total
+        return best_alpha
 
     # -- the evolution --------------------------------------------------------------------
     @staticmethod
@@ -608,6 +715,8 @@ class Engine:
                                                     history=states[:i])
                 if self.search.enabled and t > 0:
                     state = self._search(state, lower, record, i)
+                if self.stability.enabled and t > 0:
+                    state = self._leave_saddles(state, lower, record, i)
                 if self.backtrack.kind != "none":
                     for k in range(i):
                         if states[k].t > 0 and self._beats(states[k], t, state.elastic, state.surface):

@@ -188,7 +188,11 @@ def finished_steps(f):
 
 #: Per-step scalar records of a plate run, in /steps (names of thinfilm.evolution.StepRecord).
 STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_solves_skipped",
-               "backtracks", "trials", "trials_accepted", "time_u", "time_alpha", "time_total")
+               "backtracks", "trials", "trials_accepted", "time_u", "time_alpha", "time_total",
+               "lowest_curvature", "saddles_left")
+#: The integer ones among them.
+INTEGER_STEP_FIELDS = ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials", "trials_accepted",
+                       "saddles_left")
 
 
 class ResumeError(RuntimeError):
@@ -206,7 +210,9 @@ class PlateResultsWriter:
         /grid              attrs: dim, x0, x1, nx (and y0, y1, ny); datasets x (nx+1,), y (ny+1,)
         /steps/<name>      (n,) one value per finished step: t, elastic, surface, total,
                            iterations, u_solves, u_solves_skipped, backtracks, trials,
-                           trials_accepted, time_u, time_alpha, time_total (seconds)
+                           trials_accepted, time_u, time_alpha, time_total (seconds),
+                           lowest_curvature (units of toughness/eta; NaN without the
+                           stability check), saddles_left
         /fields/u          (n, n_nodes) displacement of each finished step
         /fields/alpha      (n, n_nodes) damage of each finished step
         /fields/toughness  (n_nodes,) G/a at the nodes, for an imperfect film only
@@ -241,7 +247,11 @@ class PlateResultsWriter:
                 self.file.close()
                 raise ResumeError(f"{self.path}: this installation draws another toughness field from the same"
                                   " seed (numpy's generator changed?); it cannot be resumed (run with --force)")
-            self.trim()  # a step whose write was cut short is not finished
+            n = self.trim()  # a step whose write was cut short is not finished
+            for name in STEP_FIELDS:
+                if name not in self.file["steps"]:   # written before the record existed
+                    self._create_step_dataset(self.file["steps"], name, n)
+            self.file.flush()
             return
         self.file = h5py.File(self.path, "w")
         f = self.file
@@ -274,9 +284,7 @@ class PlateResultsWriter:
             g["y"] = np.asarray(grid.y)
         steps = f.create_group("steps")
         for name in STEP_FIELDS:
-            dtype = np.int64 if name in ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials",
-                                         "trials_accepted") else np.float64
-            steps.create_dataset(name, shape=(0,), maxshape=(None,), dtype=dtype, chunks=(256,))
+            self._create_step_dataset(steps, name, 0)
         fields = f.create_group("fields")
         n = grid.n_nodes
         for name in ("u", "alpha"):
@@ -285,6 +293,15 @@ class PlateResultsWriter:
         if toughness is not None:
             fields["toughness"] = np.asarray(toughness, dtype=np.float64)
         f.flush()
+
+    @staticmethod
+    def _create_step_dataset(steps, name, n):
+        """``/steps/<name>`` with ``n`` rows (0 for integers, NaN for floats: not recorded)."""
+        integer = name in INTEGER_STEP_FIELDS
+        ds = steps.create_dataset(name, shape=(n,), maxshape=(None,), dtype=np.int64 if integer else np.float64,
+                                  chunks=(256,))
+        if n:
+            ds[:] = 0 if integer else np.nan
 
     def write_step(self, record, state):
         """Store step ``record.index`` (truncating any later steps) and flush.
@@ -309,7 +326,8 @@ class PlateResultsWriter:
         f = self.file
         n = finished_steps(f)
         for name in STEP_FIELDS:
-            f["steps"][name].resize((n,))
+            if name in f["steps"]:
+                f["steps"][name].resize((n,))
         for name in ("u", "alpha"):
             ds = f["fields"][name]
             ds.resize((n, ds.shape[1]))

@@ -409,7 +409,23 @@ class _SuperLUBackend:
         self.lu = None
 
 
-class DirectSolver:
+class _LinearSolver:
+    """What both solvers share: ``update(K)`` (new values, same pattern), ``solve(f, x0,
+    rtol) -> (u, SolveInfo)`` and the two in one call."""
+
+    def __call__(self, K, f, x0=None, rtol=None):
+        """``update(K)`` then ``solve``.
+
+        Always takes K's current values, also when K is the object passed before:
+        :meth:`thinfilm.operators.PlateOperator.matrix` rewrites one matrix in place, so
+        identity says nothing about the values. Call :meth:`solve` alone to reuse the last
+        update.
+        """
+        self.update(K)
+        return self.solve(f, x0=x0, rtol=rtol)
+
+
+class DirectSolver(_LinearSolver):
     """Sparse direct solver with the analysis kept across value updates.
 
     Parameters
@@ -497,17 +513,6 @@ class DirectSolver:
         t2 = time.perf_counter()
         return u, SolveInfo(self.kind, its, res, rtol, t1 - t0, t2 - t1, rebuilt)
 
-    def __call__(self, K, f, x0=None, rtol=None):
-        """``update(K)`` then ``solve``.
-
-        Always takes K's current values, also when K is the object passed before:
-        :meth:`thinfilm.operators.PlateOperator.matrix` rewrites one matrix in place, so
-        identity says nothing about the values. Call :meth:`solve` alone to reuse the last
-        update.
-        """
-        self.update(K)
-        return self.solve(f, x0=x0, rtol=rtol)
-
     def close(self):
         """Free the factorization (PARDISO keeps it in MKL-owned memory)."""
         self._backend.close()
@@ -569,7 +574,7 @@ def near_nullspace(coords):
     return np.column_stack([np.ones(len(c)), c / L])
 
 
-class AMGSolver:
+class AMGSolver(_LinearSolver):
     """CG preconditioned by a kept smoothed-aggregation V-cycle.
 
     Parameters
@@ -777,17 +782,6 @@ class AMGSolver:
         elif (self._baseline is not None and its >= self.min_rebuild_iterations
               and rate > self.rebuild_factor * self._baseline):
             self._stale = True
-
-    def __call__(self, K, f, x0=None, rtol=None):
-        """``update(K)`` then ``solve``.
-
-        Always takes K's current values, also when K is the object passed before:
-        :meth:`thinfilm.operators.PlateOperator.matrix` rewrites one matrix in place, so
-        identity says nothing about the values. Call :meth:`solve` alone to reuse the last
-        update.
-        """
-        self.update(K)
-        return self.solve(f, x0=x0, rtol=rtol)
 
     def close(self):
         """Drop the hierarchy."""

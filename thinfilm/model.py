@@ -2,8 +2,8 @@
 
 :class:`PlateModel` binds a grid, the plate + Winkler operator, the damage operator, a load
 ``t -> w_t`` and a linear solver into the :class:`thinfilm.evolution.FractureModel`
-interface: ``solve_u``, ``damage_problem``, ``energies`` and ``trial_states`` (the trial
-cracks of the nucleation search).
+interface: ``solve_u``, ``damage_problem``, ``energies``, ``trial_states`` (the trial
+cracks of the nucleation search) and ``stability_modes`` (the stability check).
 """
 
 from __future__ import annotations
@@ -14,7 +14,9 @@ import numpy as np
 from scipy import ndimage
 
 from thinfilm.grid import Grid
+from thinfilm.linsolve import DirectSolver, make_solver
 from thinfilm.operators import DamageOperator, PlateOperator
+from thinfilm.stability import lowest_modes
 
 
 def crack_profile(distance, eta, at):
@@ -91,6 +93,7 @@ class PlateModel:
         self.sound_threshold = float(sound_threshold)
         self.symmetry = symmetry
         self.last_solve_info = None
+        self._stability_solver = None
 
     def reduced_matrix(self, alpha):
         """The matrix the linear solver sees: the plate operator at ``alpha``, restricted to
@@ -174,6 +177,44 @@ class PlateModel:
                     orbits.add(orbit)
                     out.append(node)
         return out
+
+    def stability_modes(self, u, alpha, t, lower, k=4):
+        """The lowest curvatures of the reduced energy at ``alpha`` on its free nodes
+        (:func:`thinfilm.stability.lowest_modes`).
+
+        Parameters
+        ----------
+        u : ndarray, shape (n_nodes,)
+            Unused: the minimizing u is solved anew at ``alpha`` (a direct factorization).
+        alpha, lower : ndarray, shape (n_nodes,)
+            Damage and its lower bound at this load step.
+        t : float
+        k : int
+
+        Returns
+        -------
+        lowest : float
+            The lowest curvature in units of ``toughness / eta`` (``+inf`` without free nodes).
+        modes : ndarray, shape (k', n_nodes)
+            The modes, most unstable first, ``max |mode| = 1``.
+
+        Raises
+        ------
+        ValueError
+            For a model restricted to symmetric fields: its damage cannot follow a mode
+            that breaks the symmetry.
+        """
+        if self.symmetry is not None:
+            raise ValueError("the stability check needs fields free of symmetry restrictions")
+        if self._stability_solver is None:
+            # The u-solver is reused when it is a direct one (the next u-solve refactors it
+            # anyway); an iterative one is no use for the many solves of the eigensolver.
+            self._stability_solver = (self.linear_solver if isinstance(self.linear_solver, DirectSolver)
+                                      else make_solver("direct", self.plate.matrix(np.zeros(self.n_alpha))))
+        modes = lowest_modes(self.plate, self.damage, alpha, self.load(t), lower, k=k,
+                             solver=self._stability_solver)
+        scale = self.damage.toughness / self.eta
+        return modes.lowest / scale, modes.modes
 
     def trial_states(self, u, alpha, t):
         """One damage field per candidate point, with a crack profile inserted there.

@@ -254,6 +254,23 @@ class PlateOperator:
         kernels.plate_apply(u, g, nx, ny, hx, hy, nu, winkler, flags, mx, my, tw, out)
         return out
 
+    def apply_bending(self, g, u) -> np.ndarray:
+        """``sum_n g_n M_n u``: the bending part of ``K`` for an arbitrary nodal field ``g``
+        (any sign, no foundation) times ``u``, shape ``(n_nodes,)``.
+
+        ``K(alpha) = sum_n g(alpha_n) M_n + winkler diag(omega)`` is linear in the nodal
+        degradation, so with ``g = g'(alpha) * dalpha`` this is the derivative of ``K(alpha) u``
+        along ``dalpha`` (:mod:`thinfilm.stability`).
+        """
+        g = np.ascontiguousarray(_nodal(self.grid, "g", g), dtype=np.float64)
+        u = _nodal(self.grid, "u", u)
+        n = self.grid.n_nodes
+        nx, ny, hx, hy, nu, _, flags = self._args()
+        out = np.empty(n)
+        kernels.plate_apply(u, g, nx, ny, hx, hy, nu, 0.0, flags, np.empty(n), np.empty(n),
+                            np.empty(max(nx * ny, 1)), out)
+        return out
+
     def linear_operator(self, alpha) -> spla.LinearOperator:
         """``K(alpha)`` as a matrix-free ``scipy.sparse.linalg.LinearOperator`` (for Krylov
         solvers); ``g(alpha)`` is computed once here, not at every product.

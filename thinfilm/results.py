@@ -329,8 +329,16 @@ def describe(path):
             lines.append(f"  alpha-solves  {_seconds(float(total('time_alpha')))}")
             lines.append(f"  iterations    {int(total('iterations'))} alternate-minimization iterations"
                          f" (most in one step: {int(steps['iterations'].max()) if n else 0})")
-            lines.append(f"  backtracks    {int(total('backtracks'))}; nucleation trials"
+            lines.append(f"  backtracks    {int(total('backtracks'))}; trials (search, stability)"
                          f" {int(total('trials'))} ({int(total('trials_accepted'))} kept)")
+            if "lowest_curvature" in steps and n and np.isfinite(steps["lowest_curvature"]).any():
+                curvature = steps["lowest_curvature"]
+                checked = np.isfinite(curvature)
+                unstable = np.flatnonzero(checked & (curvature < 0))
+                lines.append(f"stability: {int(total('saddles_left'))} saddle(s) left; lowest curvature at the kept"
+                             f" states {np.nanmin(curvature):.3g} toughness/eta"
+                             + (f"; still negative at t = {', '.join(f'{t[k]:.4g}' for k in unstable)}"
+                                if len(unstable) else ""))
         elif kind == "exact1d":
             events = f["events/t"][()] if "events/t" in f else np.empty(0)
             counts = f["events/crack_count"][()] if "events/crack_count" in f else np.zeros(len(events), int)

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from thinfilm import loads
-from thinfilm.evolution import AltMinOptions, BacktrackOptions, Engine, SearchOptions
+from thinfilm.evolution import AltMinOptions, BacktrackOptions, Engine, SearchOptions, StabilityOptions
 from thinfilm.grid import Grid
 from thinfilm.imperfection import toughness_factor
 from thinfilm.io import PlateResultsWriter, write_plate_summary
@@ -157,6 +157,7 @@ def make_engine(scene, model):
         BacktrackOptions(kind=s.backtrack, delta=s.backtrack_delta, interval=s.backtrack_interval,
                          direction=s.backtrack_direction, scope=s.backtrack_scope),
         SearchOptions(enabled=s.search, delta=s.search_delta),
+        StabilityOptions(enabled=s.stability, tol=s.stability_tol),
     )
 
 

@@ -366,6 +366,9 @@ class SolverOptions:
     backtrack_scope: int = 0
     search: bool = False
     search_delta: float = 0.0
+    #: The second-order stability check after each step (:class:`thinfilm.evolution.StabilityOptions`).
+    stability: bool = False
+    stability_tol: float = 1e-3
     #: ``results.h5`` of a coarser run of the same model whose damage starts each step
     #: (grid sequencing, :mod:`thinfilm.sequencing`); None: start from the previous step.
     coarse: str | None = None
@@ -413,7 +416,8 @@ def _parse_plate(source, data, text):
     load = _Table(source, "load", data["load"], ("kind", "t_max", "steps", "radius", "file", "name"))
     solver = _Table(source, "solver", data.get("solver", {}),
                     ("linear", "tol", "max_iter", "acceleration", "omega", "backtrack", "backtrack_delta", "backtrack_interval",
-                     "backtrack_direction", "backtrack_scope", "search", "search_delta", "coarse"))
+                     "backtrack_direction", "backtrack_scope", "search", "search_delta", "stability", "stability_tol",
+                     "coarse"))
 
     x = domain.interval("x")
     y = domain.interval("y", required=False)
@@ -477,6 +481,10 @@ def _parse_plate(source, data, text):
     direction = solver.integer("backtrack_direction", default=d.backtrack_direction)
     if direction not in (1, -1):
         solver._fail("backtrack_direction", direction, "must be 1 (oldest first) or -1 (newest first)")
+    stability = solver.boolean("stability", default=d.stability)
+    if stability and dom.symmetry != "none":
+        solver._fail("stability", stability, f'follows modes that break the symmetry; it needs domain.symmetry ='
+                     f' "none" (not "{dom.symmetry}")')
     omega = solver.number("omega", default=d.omega)
     if not 1.0 <= omega <= 64.0:
         solver._fail("omega", omega, "must be in [1, 64]")
@@ -494,6 +502,8 @@ def _parse_plate(source, data, text):
         search=solver.boolean("search", default=d.search),
         search_delta=(solver.number("search_delta", minimum=0, exclusive=False)
                       if solver.has("search_delta") else 1e-3 * params.toughness),
+        stability=stability,
+        stability_tol=solver.number("stability_tol", minimum=0, default=d.stability_tol),
         coarse=_check_coarse(source, solver, params, plate_load, dim) if solver.has("coarse") else None,
     )
     snapshots = _parse_snapshots(source, data.get("output", {}), plate_load.t_max)

@@ -1,0 +1,175 @@
+"""The stability check: the reduced energy's Hessian against second differences of the
+reduced energy itself, its eigenpairs, and an evolution that leaves a symmetric saddle."""
+
+import h5py
+import numpy as np
+import pytest
+
+from thinfilm import stability
+from thinfilm.cli import main
+from thinfilm.energy import total_energy
+from thinfilm.grid import Grid
+from thinfilm.linsolve import make_solver
+from thinfilm.model import crack_profile
+from thinfilm.operators import DamageOperator, PlateOperator
+
+# The small indenter of Fig. 2.14 (R = 0.1, winkler = 6.4e7, G/a = 1.5) at t = 0.06, on a
+# coarse grid, with a damage spot a little off the centre (no symmetry to hide errors).
+RADIUS, T = 0.1, 0.06
+
+
+def _problem(cells=40):
+    grid = Grid.rectangle(-0.1, 0.1, cells, -0.1, 0.1, cells)
+    x, y = grid.coordinates
+    plate = PlateOperator(grid, 0.3, 6.4e7, 1e-6)
+    damage = DamageOperator(grid, 0.01, 1.5, 1)
+    r2, rc2 = x**2 + y**2, RADIUS**2 * T * (2 - T)
+    w = np.where(r2 < rc2, RADIUS * (1 - T) - np.sqrt(np.maximum(RADIUS**2 - r2, 0.0)), 0.0)
+    alpha = 0.9 * crack_profile(np.hypot(x - 0.002, y + 0.003), 0.01, 1)
+    return grid, plate, damage, w, alpha
+
+
+def _reduced_energy(plate, damage, w, alpha):
+    """``min_u E(u, alpha)``, computed directly."""
+    K = plate.matrix(alpha)
+    solver = make_solver("direct", K)
+    solver.update(K)
+    u, _ = solver.solve(plate.rhs(w))
+    return total_energy(plate, damage, u, alpha, w)
+
+
+@pytest.fixture(scope="module")
+def problem():
+    grid, plate, damage, w, alpha = _problem()
+    lower = np.zeros(grid.n_nodes)
+    modes = stability.lowest_modes(plate, damage, alpha, w, lower, k=3)
+    return grid, plate, damage, w, alpha, modes
+
+
+def test_hessian_is_the_second_derivative_of_the_reduced_energy(problem):
+    """``d.H.d`` against ``(E_r(a + e d) - 2 E_r(a) + E_r(a - e d)) / e^2``, which converges to it
+    at second order in ``e``: for the lowest mode and for random directions on the free nodes."""
+    grid, plate, damage, w, alpha, modes = problem
+    K = plate.matrix(alpha).copy()
+    solver = make_solver("direct", K)
+    solver.update(K)
+    hessian = stability.reduced_hessian(plate, damage, modes.u, alpha, modes.free, lambda v: solver.solve(v)[0])
+    rng = np.random.default_rng(3)
+    directions = [modes.modes[0]]
+    for _ in range(2):
+        d = np.zeros(grid.n_nodes)
+        d[modes.free] = rng.standard_normal(len(modes.free))
+        directions.append(d)
+    e0 = _reduced_energy(plate, damage, w, alpha)
+    for d in directions:
+        exact = d[modes.free] @ hessian(d[modes.free])
+        errors = []
+        for eps in (1e-2, 1e-3):
+            second = (_reduced_energy(plate, damage, w, alpha + eps * d) - 2 * e0
+                      + _reduced_energy(plate, damage, w, alpha - eps * d)) / eps**2
+            errors.append(abs(second / exact - 1))
+        assert errors[1] < 2e-5
+        assert errors[1] < errors[0] / 30   # second order (100x in exact arithmetic)
+
+
+def test_eigenpairs(problem):
+    """The modes are eigenvectors: their Rayleigh quotients (weighted by the nodes' areas) are
+    their eigenvalues, the eigenvalues ascend, and the dense solver (few free nodes) and
+    LOBPCG give the same ones."""
+    grid, plate, damage, w, alpha, modes = problem
+    K = plate.matrix(alpha).copy()
+    solver = make_solver("direct", K)
+    solver.update(K)
+    hessian = stability.reduced_hessian(plate, damage, modes.u, alpha, modes.free, lambda v: solver.solve(v)[0])
+    weights = grid.weights[modes.free]
+    assert np.all(np.diff(modes.eigenvalues) >= 0)
+    for value, mode in zip(modes.eigenvalues, modes.modes):
+        v = mode[modes.free]
+        residual = hessian(v) - value * weights * v
+        assert np.linalg.norm(residual) < 1e-3 * abs(value) * np.linalg.norm(weights * v)
+    # A larger spot: more free nodes than the dense limit, so LOBPCG; then forced dense.
+    big = crack_profile(np.maximum(np.hypot(*grid.coordinates) - 0.01, 0), 0.01, 1) * 0.95
+    lower = np.zeros(grid.n_nodes)
+    iterative = stability.lowest_modes(plate, damage, big, w, lower, k=3, tol=1e-5)
+    assert len(iterative.free) > stability.DENSE_NODES
+    limit = stability.DENSE_NODES
+    try:
+        stability.DENSE_NODES = len(iterative.free)
+        dense = stability.lowest_modes(plate, damage, big, w, lower, k=3)
+    finally:
+        stability.DENSE_NODES = limit
+    np.testing.assert_allclose(iterative.eigenvalues, dense.eigenvalues, rtol=1e-6)
+
+
+def test_no_free_nodes_means_nothing_to_check():
+    grid, plate, damage, w, alpha = _problem()
+    modes = stability.lowest_modes(plate, damage, alpha, w, lower=alpha, k=3)
+    assert len(modes.free) == 0 and modes.lowest == np.inf
+
+
+# The Fig. 2.14 scene (G/a = 1.5) on a coarse grid up to the load where its D4-symmetric
+# disk of damage is a saddle (t = 0.065): with the check the evolution leaves it.
+SCENE = """
+[model]
+kind = "plate"
+at = 1
+nu = 0.3
+winkler = 6.4e7
+toughness = 1.5
+eta = 0.005
+k_res = 1e-6
+[domain]
+x = [-0.1, 0.1]
+y = [-0.1, 0.1]
+cells = [80, 80]
+[load]
+kind = "indenter"
+radius = 0.1
+t_max = 0.065
+steps = 13
+[solver]
+acceleration = "overrelax"
+"""
+
+
+def _run(tmp_path, name, text):
+    scene = tmp_path / f"{name}.toml"
+    scene.write_text(text)
+    assert main(["run", str(scene), "--out", str(tmp_path / name), "--quiet"]) == 0
+    with h5py.File(tmp_path / name / "results.h5", "r") as f:
+        return {k: v[()] for k, v in f["steps"].items()}, f["fields/alpha"][-1].reshape(81, 81)
+
+
+def test_the_evolution_leaves_a_symmetric_saddle(tmp_path, capsys):
+    plain_steps, plain_alpha = _run(tmp_path, "plain", SCENE)
+    steps, alpha = _run(tmp_path, "checked", SCENE + "stability = true\n")
+    # Without the check: a disk of damage, symmetric under the square's rotations, no curvature.
+    assert np.abs(plain_alpha - plain_alpha.T).max() < 1e-6
+    assert np.all(np.isnan(plain_steps["lowest_curvature"]))
+    assert plain_alpha.max() > 0.9
+    # With it: a step's state was a saddle, left along a mode that picks a direction; the
+    # steps before it are the same, the ones from it on lower.
+    left = np.flatnonzero(steps["saddles_left"])
+    assert len(left) >= 1
+    k = left[0]
+    np.testing.assert_allclose(steps["total"][:k], plain_steps["total"][:k], rtol=1e-9)
+    assert np.all(steps["total"][k:] < plain_steps["total"][k:] - 1e-6)
+    assert steps["total"][-1] < plain_steps["total"][-1] - 1e-4
+    assert np.abs(alpha - alpha.T).max() > 0.3
+    # The kept states are stable (elastic steps: no free node, +inf).
+    assert np.all(steps["lowest_curvature"][1:] > -1e-3)
+    capsys.readouterr()
+    assert main(["info", str(tmp_path / "checked" / "results.h5")]) == 0
+    assert f"stability: {int(steps['saddles_left'].sum())} saddle(s) left" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("line, key", [('stability = true\n', "solver.stability"),
+                                       ('stability_tol = -1\n', "solver.stability_tol")])
+def test_bad_stability_options(tmp_path, capsys, line, key):
+    text = SCENE.replace('cells = [80, 80]', 'cells = [80, 80]\nsymmetry = "d4"') if "true" in line else SCENE
+    scene = tmp_path / "bad.toml"
+    scene.write_text(text + line)
+    assert main(["run", str(scene), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert key in err and "\n" not in err
+    assert not (tmp_path / "out").exists()
