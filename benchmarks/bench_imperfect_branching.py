@@ -37,9 +37,9 @@ symmetric states that are saddles along their most unstable mode.
 
 Writes ``benchmarks/results/imperfect_branching.md``, ``.csv`` and ``.png``; with
 ``--fine`` or ``--finer``, ``imperfect_branching_fine.*`` or ``_finer.*``. A study of some of
-the cases only adds their names to the file name (``imperfect_branching_fine_G15.*``), a
-noise other than 0.05 adds it too (``_s0.01``), and ``--stability`` adds ``_stability``, so
-that none overwrites the whole study.
+the cases adds their names and the seeds to the file name
+(``imperfect_branching_fine_G15_seeds1.*``), a noise other than 0.05 adds it too
+(``_s0.01``), and ``--stability`` adds ``_stability``, so that none overwrites another.
 """
 
 from __future__ import annotations
@@ -181,6 +181,8 @@ def main(argv=None):
         suffix += "_stability"
         runs = [(0.0, 0, False), (0.0, 0, True)]
     else:
+        if args.cases != list(CASES):
+            suffix += "_seeds" + "_".join(map(str, args.seeds))
         if args.noise != 0.05:
             suffix += f"_s{args.noise:g}"
         runs = [(0.0, 0, False)] + [(args.noise, s, False) for s in args.seeds]

@@ -1,0 +1,129 @@
+"""Speed against error of the stability check's eigensolver: LOBPCG preconditioned by the
+damage part of the Hessian (:func:`thinfilm.stability.lowest_modes`) against ARPACK's
+Lanczos iteration on the same operator.
+
+The states are those of the small indenter's perfect film (G/a = 1.5, eta = 5 dx, 360 x 360
+cells, the D4-restricted evolution of ``bench_symmetric_saddles.py``) at t = 0.06 and 0.065,
+where the disk of damage is a saddle. For each, the four lowest curvatures of the reduced
+energy are computed by
+
+- a reference: LOBPCG to residual 1e-6 (at most 400 iterations);
+- LOBPCG to 1e-4 (the check's setting);
+- ``scipy.sparse.linalg.eigsh`` (Lanczos, ``which="SA"``) to relative tolerances 1e-4 and 1e-2,
+
+and the table lists Hessian products (one u-solve each), seconds and the largest error of
+the four eigenvalues against the reference, in units of G/(a eta).
+
+Usage::
+
+    python benchmarks/bench_stability.py      # about 5 minutes
+
+Writes ``benchmarks/results/stability.md`` and ``.csv``.
+"""
+
+from __future__ import annotations
+
+import csv
+import platform
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse.linalg as spla
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # run from a checkout
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from bench_imperfect_branching import FINE, scene_text  # noqa: E402
+from thinfilm import stability  # noqa: E402
+from thinfilm.linsolve import make_solver  # noqa: E402
+from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
+from thinfilm.scene import parse_scene  # noqa: E402
+
+CASE, LOADS, K = "G15", (0.06, 0.065), 4
+
+
+def lanczos(plate, damage, alpha, w, lower, tol):
+    """The ``K`` lowest eigenvalues by ARPACK on the operator of :func:`stability.lowest_modes`;
+    returns ``(eigenvalues, products)``."""
+    K_matrix = plate.matrix(alpha)
+    solver = make_solver("direct", K_matrix)
+    solver.update(K_matrix)
+    u, _ = solver.solve(plate.rhs(w))
+    free = stability.free_nodes(alpha, lower)
+    count = [0]
+
+    def solve(v):
+        count[0] += 1
+        return solver.solve(v)[0]
+
+    product = stability.reduced_hessian(plate, damage, u, alpha, free, solve)
+    scale = 1.0 / np.sqrt(plate.grid.weights[free])
+    op = spla.LinearOperator((len(free),) * 2, matvec=lambda x: scale * product(scale * np.ravel(x)), dtype=float)
+    values = spla.eigsh(op, k=K, which="SA", tol=tol, v0=np.ones(len(free)), maxiter=100 * len(free),
+                        return_eigenvectors=False)
+    return np.sort(values), count[0]
+
+
+def main():
+    scene = parse_scene(scene_text(CASE, 0.0, 0, FINE), source=CASE)
+    grid = build_grid(scene.domain)
+    t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
+    _, states = make_engine(scene, make_model(scene, grid)).run(t_values)
+    free_scene = parse_scene(scene_text(CASE, 0.0, 0, FINE).replace('\nsymmetry = "d4"', ""), source=CASE)
+    model = make_model(free_scene, grid)
+    unit = model.damage.toughness / model.eta
+    rows = []
+    for t in LOADS:
+        k = int(np.argmin(np.abs(t_values - t)))
+        alpha, lower, w = states[k].alpha, states[k - 1].alpha, model.load(t_values[k])
+        runs = {}
+        for label, call in [
+            ("LOBPCG, tol 1e-6 (reference)", lambda: stability.lowest_modes(model.plate, model.damage, alpha, w, lower,
+                                                                            k=K, tol=1e-6, maxiter=400)),
+            ("LOBPCG, tol 1e-4 (the check)", lambda: stability.lowest_modes(model.plate, model.damage, alpha, w, lower,
+                                                                            k=K, tol=1e-4)),
+            ("Lanczos, tol 1e-4", lambda: lanczos(model.plate, model.damage, alpha, w, lower, 1e-4)),
+            ("Lanczos, tol 1e-2", lambda: lanczos(model.plate, model.damage, alpha, w, lower, 1e-2)),
+        ]:
+            start = time.perf_counter()
+            result = call()
+            seconds = time.perf_counter() - start
+            values, products = ((result.eigenvalues, result.products) if isinstance(result, stability.Modes)
+                                else result)
+            runs[label] = (values / unit, products, seconds)
+        reference = runs["LOBPCG, tol 1e-6 (reference)"][0]
+        for label, (values, products, seconds) in runs.items():
+            rows.append({"t": float(t_values[k]), "solver": label, "products": products, "seconds": seconds,
+                         "eigenvalues": " ".join(f"{v:+.4f}" for v in values),
+                         "error": float(np.max(np.abs(values - reference)))})
+            print(f"t = {t_values[k]:g} {label}: {rows[-1]['eigenvalues']} ({products} products, {seconds:.1f} s,"
+                  f" error {rows[-1]['error']:.1e})", flush=True)
+    out = ROOT / "benchmarks" / "results"
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "stability.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    lines = [
+        "# The stability check's eigensolver: speed against error",
+        "",
+        f"`python benchmarks/bench_stability.py` ({platform.machine()}, Python {platform.python_version()}). "
+        f"Small indenter, G/a = 1.5, eta = 5 dx, 360^2 cells, the symmetric states at t = {LOADS[0]} and {LOADS[1]}; "
+        f"the {K} lowest curvatures of the reduced energy (units of G/(a eta)); error: the largest difference from "
+        "the reference's.",
+        "",
+        "| t | solver | eigenvalues | products (u-solves) | time (s) | error |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(f"| {r['t']:g} | {r['solver']} | {r['eigenvalues']} | {r['products']} | {r['seconds']:.1f} | "
+                     f"{r['error']:.1e} |")
+    (out / "stability.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
