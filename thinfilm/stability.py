@@ -32,7 +32,10 @@ ways only at the nodes strictly between its bounds, where the first-order condit
 equation. Elsewhere a bound is active and (except in degenerate cases) the energy grows at
 first order in every admissible direction. The curvature is therefore taken on the free
 nodes ``F = {lower + tol < alpha < 1 - tol}``: the state is stable if ``H_FF`` is positive
-definite, a saddle if it has a negative eigenvalue. Eigenvalues are taken with respect to the
+definite, a saddle if it has a negative eigenvalue. (A negative direction lowers the energy
+for perturbations small enough to keep every node between its bounds; a node close to one
+limits how far it can be followed, which is why the engine searches the step along it.)
+Eigenvalues are taken with respect to the
 nodes' areas (``H_FF v = lambda diag(omega_F) v``), so that ``lambda`` is an energy per unit
 area per unit ``alpha^2`` and does not depend on the grid; the scale of the damage terms is
 ``toughness / eta``.
