@@ -70,13 +70,13 @@ FINE = {"eta": "0.0033333333333333335", "x": "[-0.12, 0.12]", "y": "[-0.12, 0.12
 FINER = dict(FINE, cells="[720, 720]")
 
 
-def scene_text(name, noise, seed, grid_lines, checked=False):
+def scene_text(name, noise, seed, grid_lines, checked=False, restricted=True):
     """The case file's text, its whole ``key = value`` lines replaced by ``grid_lines``
     (a dict, empty for the case file's own grid) and the noise or symmetry keys added;
-    ``checked``: the perfect film, unrestricted, with the stability check."""
+    ``checked``: the perfect film, unrestricted, with the stability check; ``restricted =
+    False``: the perfect film unrestricted, without it."""
     text = (ROOT / "cases" / CASES[name]).read_text()
-    lines = dict(grid_lines)
-    for key, value in lines.items():
+    for key, value in grid_lines.items():
         old = [line for line in text.splitlines() if line.split("=")[0].strip() == key]
         assert len(old) == 1, f"{name}: no single line for {key}"
         text = text.replace(old[0], f"{key} = {value}")
@@ -84,10 +84,12 @@ def scene_text(name, noise, seed, grid_lines, checked=False):
         anchor, added = "[solver]", "\nstability = true"
     elif noise > 0:
         anchor, added = "k_res = 1e-6", f"\ntoughness_noise = {noise}\ntoughness_noise_seed = {seed}"
-    else:
+    elif restricted:
         # Left unrestricted, the perfect film's evolution stays D4-symmetric to round-off
         # (README, small indenter): the restricted run is the same evolution, 5-10x faster.
         anchor, added = "[domain]", '\nsymmetry = "d4"'
+    else:
+        return text
     assert text.count(anchor) == 1, f"{name}: no single line {anchor!r} to add {added.strip()!r} after"
     return text.replace(anchor, anchor + added)
 

@@ -58,7 +58,7 @@ def study(name, n_steps, n_modes):
     t_values = np.linspace(0.0, symmetric.load.t_max, symmetric.load.steps + 1)
     _, states = engine.run(t_values)
     # The unrestricted operators of the same film, for the curvatures.
-    free = parse_scene(scene_text(name, 0.0, 0, FINE).replace('\nsymmetry = "d4"', ""), source=f"<{name}>")
+    free = parse_scene(scene_text(name, 0.0, 0, FINE, restricted=False), source=f"<{name}>")
     model = make_model(free, grid)
     x, y = grid.coordinates
     theta = np.arctan2(y, x)

@@ -92,9 +92,7 @@ def surface_energy(damage: "DamageOperator", alpha) -> float:
             kernels.surface_energy(alpha, grid.nx, grid.ny, grid.hx, grid.hy, damage.eta, damage.toughness, damage.at)
         )
     # A film of varying toughness: the same sums with the factor in each term.
-    local = float(damage.local_weights @ alpha**damage.at)
-    gradient = float(alpha @ (damage.surface_laplacian @ alpha))
-    return damage.cs * (local / damage.eta + damage.eta * gradient)
+    return float(damage.surface_density(alpha).sum())
 
 
 def total_energy(plate: "PlateOperator", damage: "DamageOperator", u, alpha, w) -> float:
@@ -109,7 +107,8 @@ def nodal_energy(plate: "PlateOperator", damage: "DamageOperator", u, alpha, w) 
     cells around it, see :func:`bending_density`), its foundation term
     ``winkler/2 omega_n (u_n - w_n)^2`` and its surface terms
     ``cs (omega_n alpha_n^m / eta + eta alpha_n (L alpha)_n)``, where the gradient sum
-    ``alpha.L.alpha`` is split as ``alpha_n (L alpha)_n``. The entries sum to
+    ``alpha.L.alpha`` is split as ``alpha_n (L alpha)_n`` (with the toughness factors of an
+    imperfect film: :meth:`DamageOperator.surface_density`). The entries sum to
     :func:`total_energy` (to round-off); summed over a region they give the energy there,
     exact up to the stencils that straddle its boundary.
 
@@ -126,9 +125,7 @@ def nodal_energy(plate: "PlateOperator", damage: "DamageOperator", u, alpha, w) 
     alpha = _nodal(grid, "alpha", alpha)
     w = _nodal(grid, "w", w)
     foundation = 0.5 * plate.winkler * grid.weights * (u - w) ** 2
-    surface = damage.cs * (damage.local_weights * alpha**damage.at / damage.eta
-                           + damage.eta * alpha * (damage.surface_laplacian @ alpha))
-    return 0.5 * plate.degradation(alpha) * bending_density(plate, u) + foundation + surface
+    return 0.5 * plate.degradation(alpha) * bending_density(plate, u) + foundation + damage.surface_density(alpha)
 
 
 def damage_problem(plate: "PlateOperator", damage: "DamageOperator", u) -> tuple[sp.csr_matrix, np.ndarray]:

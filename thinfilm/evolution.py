@@ -75,7 +75,7 @@ class FractureModel(Protocol):
         """Damage fields with one trial crack each, for the nucleation search."""
 
     # Optional, for the stability check (StabilityOptions):
-    # ``stability_modes(u, alpha, t, lower, k) -> (lowest, modes)``, the lowest curvature of
+    # ``stability_modes(alpha, t, lower, k) -> (lowest, modes)``, the lowest curvature of
     # the reduced energy on the free damage nodes (units of toughness / eta) and the ``k``
     # lowest modes, shape (k, n_alpha), the first the most unstable.
     #
@@ -604,7 +604,7 @@ class Engine:
         opts = self.stability
         best, best_cache = state, self._u_cache
         for round_ in range(opts.rounds + 1):
-            lowest, modes = self.model.stability_modes(best.u, best.alpha, best.t, lower, opts.modes)
+            lowest, modes = self.model.stability_modes(best.alpha, best.t, lower, opts.modes)
             record.lowest_curvature = lowest
             if lowest >= -opts.tol or round_ == opts.rounds:
                 break
@@ -630,17 +630,14 @@ class Engine:
         Irreversibility cuts the mode where it would lower alpha by more than this step has
         raised it, so the best step is searched for rather than fixed: a step too long
         leaves the unstable direction, one too short gains too little for alternate
-        minimization to move on from (one u-solve per step tried).
+        minimization to move on from (one u-solve per step tried; they leave the u-solve
+        cache describing the last one, which the caller restores).
         """
         best_alpha, best_total = None, state.total - self.stability.delta
         for sign in (1.0, -1.0):
             for j in range(7):
                 alpha = np.clip(state.alpha + sign * self.stability.amplitude * 0.5**j * mode, lower, 1.0)
-                started = time.perf_counter()
-                u = self.model.solve_u(alpha, state.t, state.u, self.altmin.u_rtol_min)
-                record.time_u += time.perf_counter() - started
-                record.u_solves += 1
-                self.work["u_solves"] += 1
+                u = self._solve_u(alpha, state.t, state.u, self.altmin.u_rtol_min, record)
                 total = sum(self.model.energies(u, alpha, state.t))
                 if total < best_total:
                     best_alpha, best_total = alpha, total

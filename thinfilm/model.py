@@ -178,14 +178,14 @@ class PlateModel:
                     out.append(node)
         return out
 
-    def stability_modes(self, u, alpha, t, lower, k=4):
+    def stability_modes(self, alpha, t, lower, k=4):
         """The lowest curvatures of the reduced energy at ``alpha`` on its free nodes
-        (:func:`thinfilm.stability.lowest_modes`).
+        (:func:`thinfilm.stability.lowest_modes`, which solves for the minimizing u at
+        ``alpha`` itself: a converged state's u belongs to the damage before its last
+        alpha-solve).
 
         Parameters
         ----------
-        u : ndarray, shape (n_nodes,)
-            Unused: the minimizing u is solved anew at ``alpha`` (a direct factorization).
         alpha, lower : ndarray, shape (n_nodes,)
             Damage and its lower bound at this load step.
         t : float

@@ -238,21 +238,10 @@ class PlateOperator:
         -------
         ndarray, shape (n_nodes,)
         """
-        g = self.degradation(alpha)
-        u = _nodal(self.grid, "u", u)
-        if out is None:
-            out = np.empty(self.grid.n_nodes, dtype=np.float64)
-        elif out.dtype != np.float64 or out.shape != (self.grid.n_nodes,) or not out.flags.c_contiguous:
+        if out is not None and (out.dtype != np.float64 or out.shape != (self.grid.n_nodes,)
+                                or not out.flags.c_contiguous):
             raise ValueError("out must be a C-contiguous float64 array of shape (n_nodes,)")
-        if self._work is None:
-            # moments at nodes (2) and on cells: kept between calls, since allocating and
-            # first-touching ~3 N doubles costs as much as the apply itself at 1500^2
-            n_cells = max(self.grid.nx * self.grid.ny, 1)
-            self._work = (np.empty(self.grid.n_nodes), np.empty(self.grid.n_nodes), np.empty(n_cells))
-        mx, my, tw = self._work
-        nx, ny, hx, hy, nu, winkler, flags = self._args()
-        kernels.plate_apply(u, g, nx, ny, hx, hy, nu, winkler, flags, mx, my, tw, out)
-        return out
+        return self._apply_g(self.degradation(alpha), u, self.winkler, out)
 
     def apply_bending(self, g, u) -> np.ndarray:
         """``sum_n g_n M_n u``: the bending part of ``K`` for an arbitrary nodal field ``g``
@@ -262,13 +251,21 @@ class PlateOperator:
         degradation, so with ``g = g'(alpha) * dalpha`` this is the derivative of ``K(alpha) u``
         along ``dalpha`` (:mod:`thinfilm.stability`).
         """
-        g = np.ascontiguousarray(_nodal(self.grid, "g", g), dtype=np.float64)
+        return self._apply_g(_nodal(self.grid, "g", g), u, 0.0, None)
+
+    def _apply_g(self, g, u, winkler, out):
+        """``(sum_n g_n M_n + winkler diag(omega)) u`` for a nodal ``g``, into ``out`` (or a new array)."""
         u = _nodal(self.grid, "u", u)
-        n = self.grid.n_nodes
+        if out is None:
+            out = np.empty(self.grid.n_nodes, dtype=np.float64)
+        if self._work is None:
+            # moments at nodes (2) and on cells: kept between calls, since allocating and
+            # first-touching ~3 N doubles costs as much as the apply itself at 1500^2
+            n_cells = max(self.grid.nx * self.grid.ny, 1)
+            self._work = (np.empty(self.grid.n_nodes), np.empty(self.grid.n_nodes), np.empty(n_cells))
+        mx, my, tw = self._work
         nx, ny, hx, hy, nu, _, flags = self._args()
-        out = np.empty(n)
-        kernels.plate_apply(u, g, nx, ny, hx, hy, nu, 0.0, flags, np.empty(n), np.empty(n),
-                            np.empty(max(nx * ny, 1)), out)
+        kernels.plate_apply(u, g, nx, ny, hx, hy, nu, winkler, flags, mx, my, tw, out)
         return out
 
     def linear_operator(self, alpha) -> spla.LinearOperator:
@@ -401,6 +398,18 @@ class DamageOperator:
     def local_weights(self) -> np.ndarray:
         """``omega_n f_n``: the node weights of the local term ``alpha^m / eta`` (a copy)."""
         return self._local_weights.copy()
+
+    def surface_density(self, alpha) -> np.ndarray:
+        """The surface energy split over the nodes, shape ``(n_nodes,)``:
+        ``cs (omega_n f_n alpha_n^m / eta + eta alpha_n (L_G alpha)_n)``, which sums to
+        ``S_h(alpha)`` (the gradient sum ``alpha.L_G.alpha`` split as ``alpha_n (L_G alpha)_n``).
+
+        Uses the operator's own ``L_G`` and weights, not copies: it runs at every
+        alternate-minimization iteration of an imperfect film.
+        """
+        alpha = _nodal(self.grid, "alpha", alpha)
+        return self.cs * (self._local_weights * alpha**self.at / self.eta
+                          + self.eta * alpha * (self._surface_laplacian @ alpha))
 
     def surface_energy(self, alpha) -> float:
         """Surface energy ``S_h(alpha)``; see :func:`thinfilm.energy.surface_energy`."""

@@ -58,7 +58,8 @@ import scipy.sparse.linalg as spla
 from thinfilm.linsolve import make_solver
 from thinfilm.operators import DamageOperator, PlateOperator
 
-__all__ = ["Modes", "free_nodes", "reduced_hessian", "lowest_modes"]
+__all__ = ["Modes", "ReducedProblem", "free_nodes", "damage_hessian", "reduced_hessian", "reduced_problem",
+           "lowest_modes"]
 
 #: Distance from a bound below which a node's damage counts as on it.
 BOUND_TOL = 1e-6
@@ -103,7 +104,13 @@ def free_nodes(alpha, lower) -> np.ndarray:
     return np.nonzero((alpha > np.asarray(lower) + BOUND_TOL) & (alpha < 1.0 - BOUND_TOL))[0]
 
 
-def reduced_hessian(plate: PlateOperator, damage: DamageOperator, u, alpha, free, solve):
+def damage_hessian(plate: PlateOperator, damage: DamageOperator, u, free):
+    """``E_aa`` on the free nodes: the alpha-problem's matrix at ``u``, shape ``(m, m)`` (CSR)."""
+    A, _ = damage.problem(plate.bending_density(u))
+    return A.tocsr()[free][:, free]
+
+
+def reduced_hessian(plate: PlateOperator, damage: DamageOperator, u, alpha, free, solve, A_ff=None):
     """The Hessian of the reduced energy on the free nodes, as a function ``dalpha_F -> H_FF dalpha_F``.
 
     Parameters
@@ -116,6 +123,8 @@ def reduced_hessian(plate: PlateOperator, damage: DamageOperator, u, alpha, free
         The free nodes.
     solve : callable
         ``solve(v) -> K(alpha)^{-1} v``, shape ``(n_nodes,)`` both.
+    A_ff : sparse matrix, shape (m, m), optional
+        :func:`damage_hessian` at ``u``, if the caller has it already.
 
     Returns
     -------
@@ -123,8 +132,8 @@ def reduced_hessian(plate: PlateOperator, damage: DamageOperator, u, alpha, free
         ``(m,) -> (m,)``.
     """
     n = plate.grid.n_nodes
-    A, _ = damage.problem(plate.bending_density(u))
-    A_ff = A.tocsr()[free][:, free]
+    if A_ff is None:
+        A_ff = damage_hessian(plate, damage, u, free)
     g_prime = -2.0 * (1.0 - np.asarray(alpha))
     clamped = plate.clamped_nodes
 
@@ -140,6 +149,62 @@ def reduced_hessian(plate: PlateOperator, damage: DamageOperator, u, alpha, free
     return product
 
 
+@dataclass
+class ReducedProblem:
+    """The eigenproblem of :func:`lowest_modes`, set up at a damage field.
+
+    Attributes
+    ----------
+    u : ndarray, shape (n_nodes,)
+        The displacement minimizing the energy at the damage.
+    free : ndarray of int, shape (m,)
+        The free nodes.
+    scale : ndarray, shape (m,)
+        ``omega_F^{-1/2}``: an eigenvector ``y`` of :attr:`operator` is the mode ``scale * y``.
+    A_ff : sparse matrix, shape (m, m)
+        ``E_aa`` on the free nodes.
+    operator : scipy.sparse.linalg.LinearOperator, shape (m, m)
+        ``diag(scale) H_FF diag(scale)``, symmetric.
+    solves : list of int
+        ``[n]``: the linear solves (Hessian products) done so far.
+    """
+
+    u: np.ndarray
+    free: np.ndarray
+    scale: np.ndarray
+    A_ff: object
+    operator: spla.LinearOperator
+    solves: list
+
+
+def reduced_problem(plate: PlateOperator, damage: DamageOperator, alpha, w, lower, solver=None) -> ReducedProblem:
+    """Factor ``K(alpha)``, solve for ``u`` and set up the scaled reduced Hessian on the free nodes.
+
+    Parameters are those of :func:`lowest_modes`.
+    """
+    alpha = np.asarray(alpha, dtype=float)
+    K = plate.matrix(alpha)
+    if solver is None:
+        solver = make_solver("direct", K)
+    solver.update(K)
+    u, _ = solver.solve(plate.rhs(w))
+    free = free_nodes(alpha, lower)
+    solves = [0]
+
+    def solve(v):
+        solves[0] += 1
+        return solver.solve(v)[0]
+
+    A_ff = damage_hessian(plate, damage, u, free)
+    product = reduced_hessian(plate, damage, u, alpha, free, solve, A_ff)
+    scale = 1.0 / np.sqrt(plate.grid.weights[free])
+    m = len(free)
+    operator = spla.LinearOperator((m, m), matvec=lambda x: scale * product(scale * np.ravel(x)),
+                                   matmat=lambda X: np.column_stack([scale * product(scale * x) for x in X.T]),
+                                   dtype=float)
+    return ReducedProblem(u, free, scale, A_ff, operator, solves)
+
+
 def lowest_modes(plate: PlateOperator, damage: DamageOperator, alpha, w, lower, k=4, tol=1e-4, maxiter=300,
                  solver=None) -> Modes:
     """The ``k`` lowest curvatures of the reduced energy at damage ``alpha`` and their modes.
@@ -151,7 +216,7 @@ def lowest_modes(plate: PlateOperator, damage: DamageOperator, alpha, w, lower, 
         Damage, substrate displacement ``w_t`` and the damage's lower bound (irreversibility).
     k : int
         Eigenpairs wanted (fewer if there are fewer free nodes). Asking for a few more than
-        one helps Lanczos with the pairs of equal eigenvalues that symmetric states have.
+        one helps LOBPCG with the pairs of equal eigenvalues that symmetric states have.
     tol : float
         Residual norm at which LOBPCG stops (the eigenvalues are energies per unit area of
         order ``toughness / eta``).
@@ -165,49 +230,31 @@ def lowest_modes(plate: PlateOperator, damage: DamageOperator, alpha, w, lower, 
     -------
     Modes
     """
-    alpha = np.asarray(alpha, dtype=float)
-    K = plate.matrix(alpha)
-    if solver is None:
-        solver = make_solver("direct", K)
-    solver.update(K)
-    u, _ = solver.solve(plate.rhs(w))
-    free = free_nodes(alpha, lower)
-    m = len(free)
+    problem = reduced_problem(plate, damage, alpha, w, lower, solver)
+    free, scale, m = problem.free, problem.scale, len(problem.free)
     if m == 0:
-        return Modes(np.empty(0), np.empty((0, plate.grid.n_nodes)), free, u, 0)
-    counter = [0]
-
-    def solve(v):
-        counter[0] += 1
-        return solver.solve(v)[0]
-
-    product = reduced_hessian(plate, damage, u, alpha, free, solve)
-    scale = 1.0 / np.sqrt(plate.grid.weights[free])
+        return Modes(np.empty(0), np.empty((0, plate.grid.n_nodes)), free, problem.u, 0)
     if m <= DENSE_NODES:
         # Few free nodes: the dense matrix, column by column.
-        H = np.column_stack([scale * product(scale * e) for e in np.eye(m)])
+        H = problem.operator.matmat(np.eye(m))
         values, vectors = np.linalg.eigh(0.5 * (H + H.T))
         values, vectors = values[:k], vectors[:, :k]
     else:
-        op = spla.LinearOperator((m, m), matvec=lambda x: scale * product(scale * np.ravel(x)),
-                                 matmat=lambda X: np.column_stack([scale * product(scale * x) for x in X.T]),
-                                 dtype=float)
         # Preconditioner: the damage part E_aa alone, which holds the stiff gradient term;
         # H differs from it by the smooth Schur term. This takes LOBPCG to the lowest
         # eigenpairs in a few dozen iterations where plain Lanczos needs hundreds of products.
-        A, _ = damage.problem(plate.bending_density(u))
-        A_ff = sp.diags(scale) @ A.tocsr()[free][:, free] @ sp.diags(scale)
-        lu = spla.splu(A_ff.tocsc())
+        lu = spla.splu((sp.diags(scale) @ problem.A_ff @ sp.diags(scale)).tocsc())
         precond = spla.LinearOperator((m, m), matvec=lambda x: lu.solve(np.ravel(x)), matmat=lu.solve, dtype=float)
         start = np.random.default_rng(0).standard_normal((m, k))   # fixed: reproducible results
         with warnings.catch_warnings():
             # LOBPCG warns when it stalls a little short of tol; its best pairs are kept (the
             # check needs the sign of the lowest curvature and its mode, not 1e-4 accuracy).
             warnings.simplefilter("ignore", UserWarning)
-            values, vectors = spla.lobpcg(op, start, M=precond, largest=False, tol=tol, maxiter=maxiter)
+            values, vectors = spla.lobpcg(problem.operator, start, M=precond, largest=False, tol=tol,
+                                          maxiter=maxiter)
     order = np.argsort(values)
     modes = np.zeros((len(order), plate.grid.n_nodes))
     for row, j in enumerate(order):
         mode = scale * vectors[:, j]
         modes[row, free] = mode / np.abs(mode).max()
-    return Modes(values[order], modes, free, u, counter[0])
+    return Modes(values[order], modes, free, problem.u, problem.solves[0])
