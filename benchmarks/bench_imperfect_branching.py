@@ -31,11 +31,16 @@ with --fine and seeds 1 2, 50 minutes)::
     python benchmarks/bench_imperfect_branching.py --cases G15 --seeds 1 --finer  # eta = 10 dx, 720^2
     python benchmarks/bench_imperfect_branching.py --fine --stability  # the perfect film, checked
 
+The imperfect film of ``--finer`` with seed 1 is the scene of
+``cases/indentation_branching_*_fine.toml`` (the same scene, built here from the coarse case
+file; 36-77 minutes per evolution).
+
 With ``--stability`` the study runs, instead of imperfect films, the perfect film unrestricted
 with ``[solver] stability = true`` (:mod:`thinfilm.stability`): its evolution leaves the
 symmetric states that are saddles along their most unstable mode.
 
-Writes ``benchmarks/results/imperfect_branching.md``, ``.csv`` and ``.png``; with
+Writes ``benchmarks/results/imperfect_branching.md``, ``.csv`` and ``.png`` after each run (a
+stopped study keeps the runs it finished); with
 ``--fine`` or ``--finer``, ``imperfect_branching_fine.*`` or ``_finer.*``. A study of some of
 the cases adds their names and the seeds to the file name
 (``imperfect_branching_fine_G15_seeds1.*``), a noise other than 0.05 adds it too
@@ -158,6 +163,37 @@ def run(name, noise, seed, grid_lines, checked=False):
     return out, final, (x, y)
 
 
+def write_results(stem, fig, rows, command):
+    """Write ``stem``.png, .csv and .md from the runs so far; return the Markdown table."""
+    stem.parent.mkdir(parents=True, exist_ok=True)
+    path = {ext: stem.parent / (stem.name + ext) for ext in (".png", ".csv", ".md")}  # the stem may hold "_s0.01"
+    fig.tight_layout()
+    fig.savefig(path[".png"], dpi=90)
+    with open(path[".csv"], "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    lines = [
+        "# Branching in an imperfect film (Fig. 2.14 evolutions)",
+        "",
+        f"`{command}` ({platform.machine()}, Python {platform.python_version()}). "
+        "Arms: cracks cutting a circle of radius 3 eta about the junction of the damage; gaps: angles between neighbouring "
+        "arms (degrees). The perfect film (noise 0, seed -) runs restricted to D4-symmetric fields, the imperfect "
+        "ones and the perfect film with the stability check (seed: stability) unrestricted; time and iterations are "
+        "the whole evolution's (with the stability check's).",
+        "",
+        "| case | G/a | noise | seed | t | arms | gaps | total energy | iterations | time (s) |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for row in rows:
+        lines.append(f"| {row['case']} | {row['toughness']:g} | {row['noise']:g} | {row['seed']} | {row['t']:g} | "
+                     f"{row['arms']} | {row['gaps'] or '-'} | {row['total']:.5f} | {row['iterations']} | "
+                     f"{row['seconds']:.0f} |")
+    text = "\n".join(lines) + "\n"
+    path[".md"].write_text(text)
+    return text
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
@@ -188,6 +224,11 @@ def main(argv=None):
         if args.noise != 0.05:
             suffix += f"_s{args.noise:g}"
         runs = [(0.0, 0, False)] + [(args.noise, s, False) for s in args.seeds]
+    resolution_flag = " --fine" if args.fine else " --finer" if args.finer else ""
+    command = (f"python benchmarks/bench_imperfect_branching.py --cases {' '.join(args.cases)}"
+               + (" --stability" if args.stability else
+                  f" --seeds {' '.join(map(str, args.seeds))} --noise {args.noise:g}") + resolution_flag)
+    stem = args.out / f"imperfect_branching{suffix}"
     rows = []
     fig, axes = plt.subplots(len(args.cases), len(runs), figsize=(2.6 * len(runs), 2.6 * len(args.cases)),
                              squeeze=False)
@@ -206,36 +247,8 @@ def main(argv=None):
             ax.set_yticks([])
             label = ("perfect, stability check" if checked else "perfect") if noise == 0 else f"s = {noise:g}, seed {seed}"
             ax.set_title(f"{name}, {label}\nt = {last['t']:g}: {last['arms']} arms", fontsize=8)
-    args.out.mkdir(parents=True, exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(args.out / f"imperfect_branching{suffix}.png", dpi=90)
-
-    with open(args.out / f"imperfect_branching{suffix}.csv", "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-    resolution_flag = " --fine" if args.fine else " --finer" if args.finer else ""
-    command = (f"python benchmarks/bench_imperfect_branching.py --cases {' '.join(args.cases)}"
-               + (" --stability" if args.stability else
-                  f" --seeds {' '.join(map(str, args.seeds))} --noise {args.noise:g}") + resolution_flag)
-    lines = [
-        "# Branching in an imperfect film (Fig. 2.14 evolutions)",
-        "",
-        f"`{command}` ({platform.machine()}, Python {platform.python_version()}). "
-        "Arms: cracks cutting a circle of radius 3 eta about the junction of the damage; gaps: angles between neighbouring "
-        "arms (degrees). The perfect film (noise 0, seed -) runs restricted to D4-symmetric fields, the imperfect "
-        "ones and the perfect film with the stability check (seed: stability) unrestricted; time and iterations are "
-        "the whole evolution's (with the stability check's).",
-        "",
-        "| case | G/a | noise | seed | t | arms | gaps | total energy | iterations | time (s) |",
-        "|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for row in rows:
-        lines.append(f"| {row['case']} | {row['toughness']:g} | {row['noise']:g} | {row['seed']} | {row['t']:g} | "
-                     f"{row['arms']} | {row['gaps'] or '-'} | {row['total']:.5f} | {row['iterations']} | "
-                     f"{row['seconds']:.0f} |")
-    (args.out / f"imperfect_branching{suffix}.md").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+            write_results(stem, fig, rows, command)   # after each run: an evolution takes up to an hour
+    print(write_results(stem, fig, rows, command))
 
 
 if __name__ == "__main__":

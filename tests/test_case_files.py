@@ -1,0 +1,36 @@
+"""The scene files in ``cases/``: each one the README names must load, and a case's finer
+variant must be the same experiment, changed only where its comment says."""
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+from thinfilm.scene import load_scene
+
+CASES = Path(__file__).resolve().parent.parent / "cases"
+
+
+@pytest.mark.parametrize("path", sorted(CASES.glob("*.toml")), ids=lambda p: p.name)
+def test_case_file_is_a_valid_scene(path):
+    # load_scene raises SceneError (one line naming the key) on anything it cannot run.
+    scene = load_scene(path)
+    assert scene.text == path.read_text()
+
+
+@pytest.mark.parametrize("name", ["G20", "G15", "G07"])
+def test_fine_branching_scene_changes_only_the_grid_and_the_film(name):
+    # indentation_branching_*_fine.toml: Fig. 2.14 at the dissertation's eta = 0.0033 on a
+    # grid with eta = 10 dx and a 5% toughness scatter; bond, toughness, indenter, loads,
+    # solver and snapshots are those of the coarse case.
+    coarse = load_scene(CASES / f"indentation_branching_{name}.toml")
+    fine = load_scene(CASES / f"indentation_branching_{name}_fine.toml")
+    changed = {"eta", "toughness_noise", "toughness_noise_length", "toughness_noise_seed"}
+    for field in dataclasses.fields(coarse.model):
+        if field.name not in changed:
+            assert getattr(fine.model, field.name) == getattr(coarse.model, field.name), field.name
+    assert (fine.load, fine.solver, fine.snapshots) == (coarse.load, coarse.solver, coarse.snapshots)
+    assert fine.model.eta == pytest.approx(0.01 / 3.0)
+    dx = (fine.domain.x[1] - fine.domain.x[0]) / fine.domain.cells[0]
+    assert fine.model.eta / dx == pytest.approx(10.0)
+    assert fine.model.toughness_noise == 0.05 and fine.model.toughness_noise_length == fine.model.eta
