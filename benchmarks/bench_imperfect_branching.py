@@ -247,8 +247,8 @@ def main(argv=None):
             ax.set_yticks([])
             label = ("perfect, stability check" if checked else "perfect") if noise == 0 else f"s = {noise:g}, seed {seed}"
             ax.set_title(f"{name}, {label}\nt = {last['t']:g}: {last['arms']} arms", fontsize=8)
-            write_results(stem, fig, rows, command)   # after each run: an evolution takes up to an hour
-    print(write_results(stem, fig, rows, command))
+            table = write_results(stem, fig, rows, command)   # after each run: an evolution takes up to an hour
+    print(table)
 
 
 if __name__ == "__main__":
