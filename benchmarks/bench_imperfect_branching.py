@@ -39,8 +39,10 @@ With ``--stability`` the study runs, instead of imperfect films, the perfect fil
 with ``[solver] stability = true`` (:mod:`thinfilm.stability`): its evolution leaves the
 symmetric states that are saddles along their most unstable mode.
 
-Writes ``benchmarks/results/imperfect_branching.md``, ``.csv`` and ``.png`` after each run (a
-stopped study keeps the runs it finished); with
+Writes ``benchmarks/results/imperfect_branching.md``, ``.csv``, ``.png`` and ``_alpha.npz``
+(the grid's ``x``, ``y`` and each run's last damage, shape ``(ny + 1, nx + 1)``, keyed
+``G15_perfect``, ``G15_seed2``, ...) after each run (a stopped study keeps the runs it
+finished); with
 ``--fine`` or ``--finer``, ``imperfect_branching_fine.*`` or ``_finer.*``. A study of some of
 the cases adds their names and the seeds to the file name
 (``imperfect_branching_fine_G15_seeds1.*``), a noise other than 0.05 adds it too
@@ -61,7 +63,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
-from thinfilm.cracks import CRACK_THRESHOLD, arms  # noqa: E402
+from thinfilm.cracks import CRACK_THRESHOLD, arms, branch_points  # noqa: E402
 from thinfilm.loads import contact_radius  # noqa: E402
 from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
@@ -153,10 +155,15 @@ def run(name, noise, seed, grid_lines, checked=False):
     for t_snap in scene.snapshots:
         k = int(np.argmin(np.abs(t_values - t_snap)))
         alpha = states[k].alpha.reshape(grid.ny + 1, grid.nx + 1)
-        n_arms, gaps = pattern(alpha, x, y, 0.8 * contact_radius(scene.load.radius, t_values[k]), scene.model.eta)
+        inner_radius = 0.8 * contact_radius(scene.load.radius, t_values[k])
+        n_arms, gaps = pattern(alpha, x, y, inner_radius, scene.model.eta)
+        X, Y = np.meshgrid(x, y)
+        junctions = branch_points(alpha, x, y, 1.5 * scene.model.eta, within=np.hypot(X, Y) < inner_radius)
+        spacing = max((np.hypot(a[0] - b[0], a[1] - b[1]) for a in junctions for b in junctions), default=0.0)
         out.append({"case": name, "toughness": scene.model.toughness, "noise": noise,
                     "seed": seed if noise else ("stability" if checked else "-"),
                     "t": round(float(t_values[k]), 6), "arms": n_arms, "gaps": " ".join(map(str, gaps)),
+                    "branch_points": len(junctions), "spacing": spacing / scene.model.eta,
                     "total": states[k].total, "iterations": sum(r.iterations for r in records),
                     "seconds": seconds})
     final = states[-1].alpha.reshape(grid.ny + 1, grid.nx + 1)
@@ -178,16 +185,20 @@ def write_results(stem, fig, rows, command):
         "",
         f"`{command}` ({platform.machine()}, Python {platform.python_version()}). "
         "Arms: cracks cutting a circle of radius 3 eta about the junction of the damage; gaps: angles between neighbouring "
-        "arms (degrees). The perfect film (noise 0, seed -) runs restricted to D4-symmetric fields, the imperfect "
+        "arms (degrees). Branch points: clusters of broken nodes about which three or more cracks cut a circle of "
+        "radius 1.5 eta (`thinfilm.cracks.branch_points`; closer than about 3 eta they read as one); spacing: the "
+        "largest distance between two of them, in eta. The perfect film (noise 0, seed -) runs restricted to D4-symmetric fields, the imperfect "
         "ones and the perfect film with the stability check (seed: stability) unrestricted; time and iterations are "
         "the whole evolution's (with the stability check's).",
         "",
-        "| case | G/a | noise | seed | t | arms | gaps | total energy | iterations | time (s) |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| case | G/a | noise | seed | t | arms | gaps | branch points | spacing / eta | total energy | iterations "
+        "| time (s) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:
         lines.append(f"| {row['case']} | {row['toughness']:g} | {row['noise']:g} | {row['seed']} | {row['t']:g} | "
-                     f"{row['arms']} | {row['gaps'] or '-'} | {row['total']:.5f} | {row['iterations']} | "
+                     f"{row['arms']} | {row['gaps'] or '-'} | {row['branch_points']} | "
+                     f"{row['spacing']:.1f} | {row['total']:.5f} | {row['iterations']} | "
                      f"{row['seconds']:.0f} |")
     text = "\n".join(lines) + "\n"
     path[".md"].write_text(text)
@@ -229,7 +240,7 @@ def main(argv=None):
                + (" --stability" if args.stability else
                   f" --seeds {' '.join(map(str, args.seeds))} --noise {args.noise:g}") + resolution_flag)
     stem = args.out / f"imperfect_branching{suffix}"
-    rows = []
+    rows, fields = [], {}
     fig, axes = plt.subplots(len(args.cases), len(runs), figsize=(2.6 * len(runs), 2.6 * len(args.cases)),
                              squeeze=False)
     for axes_row, name in zip(axes, args.cases):
@@ -248,6 +259,10 @@ def main(argv=None):
             label = ("perfect, stability check" if checked else "perfect") if noise == 0 else f"s = {noise:g}, seed {seed}"
             ax.set_title(f"{name}, {label}\nt = {last['t']:g}: {last['arms']} arms", fontsize=8)
             table = write_results(stem, fig, rows, command)   # after each run: an evolution takes up to an hour
+            # The last damage of every run so far, to read the patterns again without rerunning them.
+            fields[f"{name}_{'perfect' if noise == 0 else f'seed{seed}'}{'_stability' if checked else ''}"] = \
+                final.astype(np.float32)
+            np.savez_compressed(stem.parent / (stem.name + "_alpha.npz"), x=x, y=y, **fields)
     print(table)
 
 

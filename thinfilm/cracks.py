@@ -94,3 +94,51 @@ def arms(alpha, x, y, radius, centre=(0.0, 0.0), threshold=CRACK_THRESHOLD, samp
     edges = np.flatnonzero(np.diff(np.r_[broken, False].astype(int)))
     return np.degrees([np.angle(np.exp(1j * theta[a + 1:b + 1]).mean()) % (2 * np.pi)
                        for a, b in zip(edges[::2], edges[1::2])])
+
+
+def branch_points(alpha, x, y, radius, within=None, threshold=CRACK_THRESHOLD):
+    """Points where cracks branch or cross: the clusters of broken nodes about which three or
+    more cracks cut a circle of radius ``radius``.
+
+    About a node on a single crack the circle is cut twice (or once at a tip); about a node
+    within ``radius`` of a junction it is cut by every crack that leaves the junction. Such
+    nodes form one cluster per junction, about ``radius`` across, so two junctions closer than
+    about ``2 radius`` read as one, with all their arms (two Y junctions a short way apart read
+    as a cross).
+
+    Parameters
+    ----------
+    alpha : ndarray, shape (ny + 1, nx + 1)
+        Damage on a 2D grid (``[j, i]`` order).
+    x, y : ndarray, shape (nx + 1,), (ny + 1,)
+        Node coordinates.
+    radius : float
+        Radius of the circles (units of L): larger than the width of a crack's broken core
+        and of the blob of damage at a junction, smaller than the junctions' spacing to be
+        resolved. Circles must lie inside the grid.
+    within : ndarray of bool, shape (ny + 1, nx + 1), optional
+        The nodes to look at (default: all nodes at least ``radius`` from the grid's edge).
+    threshold : float, optional
+        Damage from which a node is broken.
+
+    Returns
+    -------
+    list of (float, float, int)
+        ``(x, y, arms)`` per junction: the mean position of its cluster and the largest number
+        of cracks that cut a circle about one of its nodes, sorted by distance from the origin.
+    """
+    from scipy import ndimage
+
+    x, y, alpha = np.asarray(x), np.asarray(y), np.asarray(alpha)
+    X, Y = np.meshgrid(x, y)
+    inside = ((X - x[0] >= radius) & (x[-1] - X >= radius) & (Y - y[0] >= radius) & (y[-1] - Y >= radius))
+    candidates = (alpha >= threshold) & inside & (within if within is not None else True)
+    count = np.zeros(alpha.shape, dtype=int)
+    for j, i in zip(*np.nonzero(candidates)):
+        count[j, i] = len(arms(alpha, x, y, radius, centre=(x[i], y[j]), threshold=threshold, samples=240))
+    labels, n = ndimage.label(count >= 3, structure=np.ones((3, 3)))
+    found = []
+    for k in range(1, n + 1):
+        member = labels == k
+        found.append((float(X[member].mean()), float(Y[member].mean()), int(count[member].max())))
+    return sorted(found, key=lambda p: np.hypot(p[0], p[1]))
