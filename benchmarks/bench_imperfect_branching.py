@@ -186,7 +186,7 @@ def write_results(stem, fig, rows, command):
         f"`{command}` ({platform.machine()}, Python {platform.python_version()}). "
         "Arms: cracks cutting a circle of radius 3 eta about the junction of the damage; gaps: angles between neighbouring "
         "arms (degrees). Branch points: clusters of broken nodes about which three or more cracks cut a circle of "
-        "radius 1.5 eta (`thinfilm.cracks.branch_points`; closer than about 3 eta they read as one); spacing: the "
+        "radius 1.5 eta (`thinfilm.cracks.branch_points`; closer than about 2-3 eta they read as one); spacing: the "
         "largest distance between two of them, in eta. The perfect film (noise 0, seed -) runs restricted to D4-symmetric fields, the imperfect "
         "ones and the perfect film with the stability check (seed: stability) unrestricted; time and iterations are "
         "the whole evolution's (with the stability check's).",

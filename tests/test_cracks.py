@@ -39,7 +39,7 @@ def _two_junctions(spacing):
     return [(a, b), _ray(a, 120), _ray(a, 240), _ray(b, 60), _ray(b, -60)]
 
 
-@pytest.mark.parametrize("spacing", [0.012, 0.02, 0.035])
+@pytest.mark.parametrize("spacing", [0.006, 0.012, 0.02, 0.035])
 def test_two_branch_points_at_their_drawn_places(spacing):
     found = branch_points(_drawn(_two_junctions(spacing)), X_NODES, X_NODES, RADIUS)
     assert len(found) == 2
