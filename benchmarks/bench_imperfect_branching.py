@@ -151,13 +151,13 @@ def run(name, noise, seed, grid_lines, checked=False):
     records, states = engine.run(t_values)
     seconds = time.perf_counter() - start
     x, y = np.asarray(grid.x), np.asarray(grid.y)
+    X, Y = np.meshgrid(x, y)
     out = []
     for t_snap in scene.snapshots:
         k = int(np.argmin(np.abs(t_values - t_snap)))
         alpha = states[k].alpha.reshape(grid.ny + 1, grid.nx + 1)
         inner_radius = 0.8 * contact_radius(scene.load.radius, t_values[k])
         n_arms, gaps = pattern(alpha, x, y, inner_radius, scene.model.eta)
-        X, Y = np.meshgrid(x, y)
         junctions = branch_points(alpha, x, y, 1.5 * scene.model.eta, within=np.hypot(X, Y) < inner_radius)
         spacing = max((np.hypot(a[0] - b[0], a[1] - b[1]) for a in junctions for b in junctions), default=0.0)
         out.append({"case": name, "toughness": scene.model.toughness, "noise": noise,
@@ -170,10 +170,13 @@ def run(name, noise, seed, grid_lines, checked=False):
     return out, final, (x, y)
 
 
-def write_results(stem, fig, rows, command):
-    """Write ``stem``.png, .csv and .md from the runs so far; return the Markdown table."""
+def write_results(stem, fig, rows, fields, command):
+    """Write ``stem``.png, .csv, .md and _alpha.npz (``fields``: the grid's ``x``, ``y`` and
+    each run's last damage) from the runs so far; return the Markdown table."""
     stem.parent.mkdir(parents=True, exist_ok=True)
-    path = {ext: stem.parent / (stem.name + ext) for ext in (".png", ".csv", ".md")}  # the stem may hold "_s0.01"
+    path = {ext: stem.parent / (stem.name + ext)   # the stem may hold "_s0.01"
+            for ext in (".png", ".csv", ".md", "_alpha.npz")}
+    np.savez_compressed(path["_alpha.npz"], **fields)
     fig.tight_layout()
     fig.savefig(path[".png"], dpi=90)
     with open(path[".csv"], "w", newline="") as fh:
@@ -240,7 +243,7 @@ def main(argv=None):
                + (" --stability" if args.stability else
                   f" --seeds {' '.join(map(str, args.seeds))} --noise {args.noise:g}") + resolution_flag)
     stem = args.out / f"imperfect_branching{suffix}"
-    rows, fields = [], {}
+    rows, fields = [], {}   # fields: the grid, then each run's last damage
     fig, axes = plt.subplots(len(args.cases), len(runs), figsize=(2.6 * len(runs), 2.6 * len(args.cases)),
                              squeeze=False)
     for axes_row, name in zip(axes, args.cases):
@@ -258,11 +261,11 @@ def main(argv=None):
             ax.set_yticks([])
             label = ("perfect, stability check" if checked else "perfect") if noise == 0 else f"s = {noise:g}, seed {seed}"
             ax.set_title(f"{name}, {label}\nt = {last['t']:g}: {last['arms']} arms", fontsize=8)
-            table = write_results(stem, fig, rows, command)   # after each run: an evolution takes up to an hour
-            # The last damage of every run so far, to read the patterns again without rerunning them.
+            # The last damage, to read the patterns again without rerunning an evolution.
+            fields.update(x=x, y=y)
             fields[f"{name}_{'perfect' if noise == 0 else f'seed{seed}'}{'_stability' if checked else ''}"] = \
                 final.astype(np.float32)
-            np.savez_compressed(stem.parent / (stem.name + "_alpha.npz"), x=x, y=y, **fields)
+            table = write_results(stem, fig, rows, fields, command)   # after each run: an evolution takes up to an hour
     print(table)
 
 
