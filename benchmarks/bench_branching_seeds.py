@@ -1,5 +1,5 @@
-"""Crosses against three-armed stars under the small indenter: the energy of each pattern
-at one load, from seeded damage, on the dissertation's Fig. 2.14 scenes.
+"""Crosses, three-armed stars, double branches and rings under the small indenter: the
+energy of each pattern at one load, from seeded damage, on the dissertation's Fig. 2.14 scenes.
 
 The evolutions of ``cases/indentation_branching_*.toml`` end as crosses along the grid axes
 where the dissertation shows cracks meeting at 120 degrees. Two causes are possible: the
@@ -15,6 +15,14 @@ the distance to a segment:
 - ``star 15``: the star turned by 15 degrees (every other star is one of these two up to the
   grid's symmetries, which repeat stars every 30 degrees).
 
+and, on request (``--seeds``), patterns with two branch points or a ring crack:
+
+- ``double Y c``: a segment of length ``2 c eta`` along x through the centre, each of whose
+  ends branches into two arms at 120 degrees (c = 1.5, 3, 6): Fig. 2.14's "two close branch
+  points" and "distant branch points";
+- ``ring``, ``cross 0 + ring``, ``star 0 + ring``: a ring crack of 0.9 times the contact
+  radius at the load, alone or around a cross or a star;
+
 and runs alternate minimization at the load ``t`` from each seed with no irreversibility
 bound (``Engine.run`` with the seed as the step's starting guess, the scene's own solver
 options), so that arms may grow, shrink or turn. It reports each final state's energies,
@@ -25,8 +33,12 @@ Usage (the defaults are the three Fig. 2.14 cases at the dissertation's eta = 0.
 
     python benchmarks/bench_branching_seeds.py
     python benchmarks/bench_branching_seeds.py --cells 720 --cases G07     # eta = 10 dx
+    python benchmarks/bench_branching_seeds.py --seeds 'star 0' 'double Y 1.5' 'double Y 3' \
+        'double Y 6' --stem branching_seeds_double_y                  # 35 minutes
+    python benchmarks/bench_branching_seeds.py --cases G07 --seeds ring 'cross 0 + ring' \
+        'star 0 + ring' --stem branching_seeds_ring_G07              # 5 minutes
 
-Writes ``benchmarks/results/branching_seeds.md``, ``.csv`` and ``.png``.
+Writes ``benchmarks/results/branching_seeds.md``, ``.csv`` and ``.png`` (``--stem`` names them).
 """
 
 from __future__ import annotations
@@ -44,6 +56,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
 from thinfilm.evolution import EvolutionError  # noqa: E402
+from thinfilm.loads import contact_radius  # noqa: E402
 from thinfilm.model import crack_profile  # noqa: E402
 from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
@@ -52,8 +65,14 @@ ETA = 0.0033333333333333335  # the dissertation's eta = 5 dx at 1500 nodes on (-
 HALF_WIDTH = 0.12
 # case: toughness G/a, load t (the figure's), arm length (alpha > 0.5 of the D4 evolutions)
 CASES = {"G07": (0.7, 0.075, 0.027), "G15": (1.5, 0.1, 0.025), "G20": (2.0, 0.17, 0.036)}
+# Seeds made of arms from the centre: the arms' directions in degrees.
 SEEDS = {"cross 0": (0, 90, 180, 270), "cross 45": (45, 135, 225, 315),
          "star 0": (0, 120, 240), "star 15": (15, 135, 255)}
+# Seeds of two branch points: a segment along x from (-c, 0) to (c, 0) whose ends each branch
+# into two arms at 120 degrees to it and to each other (an "H" with bent legs), by c / eta.
+DOUBLE_Y = {"double Y 1.5": 1.5, "double Y 3": 3.0, "double Y 6": 6.0}
+# Seeds with a ring crack of 0.9 times the contact radius at the load: the pattern inside it.
+RINGED = {"ring": (), "cross 0 + ring": SEEDS["cross 0"], "star 0 + ring": SEEDS["star 0"]}
 
 SCENE = """
 [model]
@@ -82,28 +101,51 @@ max_iter = {max_iter}
 """
 
 
-def seed_damage(grid, eta, angles_deg, length):
-    """AT1 profile of the distance to straight arms of ``length`` from the origin, shape
-    ``(n_nodes,)``."""
+def segments(seed_name, eta, length):
+    """The straight segments of a seeded pattern, as ``((x0, y0), (x1, y1))`` pairs.
+
+    A star or cross (:data:`SEEDS`, and the pattern inside a ring of :data:`RINGED`, whose
+    ring :func:`seed_damage` adds) has arms of ``length`` from the origin; a double Y
+    (:data:`DOUBLE_Y`) has its central segment of length ``2 c`` along x and four arms of
+    ``length`` from its ends, at 60 degrees to the x axis.
+    """
+    if seed_name in SEEDS or seed_name in RINGED:
+        directions = np.radians(SEEDS.get(seed_name, RINGED.get(seed_name)))
+        return [((0.0, 0.0), (length * np.cos(a), length * np.sin(a))) for a in directions]
+    c = DOUBLE_Y[seed_name] * eta
+    pieces = [((-c, 0.0), (c, 0.0))]
+    for end, directions in ((c, (60.0, -60.0)), (-c, (120.0, 240.0))):
+        for a in np.radians(directions):
+            pieces.append(((end, 0.0), (end + length * np.cos(a), length * np.sin(a))))
+    return pieces
+
+
+def seed_damage(grid, eta, pieces, ring_radius=None):
+    """AT1 profile of the distance to the segments ``pieces`` (from :func:`segments`) and to
+    the circle of ``ring_radius`` about the origin if one is given, shape ``(n_nodes,)``."""
     x, y = (c.ravel() for c in grid.coordinates)
     distance = np.full(x.size, np.inf)
-    for angle in np.radians(angles_deg):
-        ex, ey = np.cos(angle), np.sin(angle)
-        s = np.clip(x * ex + y * ey, 0.0, length)  # foot of the perpendicular on the arm
-        distance = np.minimum(distance, np.hypot(x - s * ex, y - s * ey))
+    if ring_radius is not None:
+        distance = np.abs(np.hypot(x, y) - ring_radius)
+    for (x0, y0), (x1, y1) in pieces:
+        ex, ey = x1 - x0, y1 - y0
+        # foot of the perpendicular on the segment, as a fraction of its length
+        s = np.clip(((x - x0) * ex + (y - y0) * ey) / (ex * ex + ey * ey), 0.0, 1.0)
+        distance = np.minimum(distance, np.hypot(x - x0 - s * ex, y - y0 - s * ey))
     return crack_profile(distance, eta, 1)
 
 
-def run_case(name, cells, max_iter):
+def run_case(name, cells, max_iter, seed_names):
     toughness, t, length = CASES[name]
     scene = parse_scene(SCENE.format(toughness=toughness, eta=ETA, half=HALF_WIDTH, cells=cells, t=t,
                                      max_iter=max_iter), source=f"<{name}>")
     grid = build_grid(scene.domain)
     model = make_model(scene, grid)  # one model (and solver analysis) for every seed
     rows, fields = [], {}
-    for seed_name, angles in SEEDS.items():
+    for seed_name in seed_names:
         engine = make_engine(scene, model)
-        seed = seed_damage(grid, ETA, angles, length)
+        ring_radius = 0.9 * contact_radius(scene.load.radius, t) if seed_name in RINGED else None
+        seed = seed_damage(grid, ETA, segments(seed_name, ETA, length), ring_radius)
         start = time.perf_counter()
         try:
             records, states = engine.run([t], guess=lambda _t: seed)
@@ -131,8 +173,12 @@ def main(argv=None):
     parser.add_argument("--cells", type=int, default=360, help="cells per side of (-0.12, 0.12)^2")
     parser.add_argument("--max-iter", type=int, default=600,
                         help="alternate-minimization iterations allowed (a pattern still moving is reported)")
+    parser.add_argument("--seeds", nargs="+", default=list(SEEDS), choices=list(SEEDS) + list(DOUBLE_Y) + list(RINGED),
+                        help="patterns to seed (cross 0, the reference, is always run first)")
+    parser.add_argument("--stem", default="branching_seeds", help="name of the result files")
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     args = parser.parse_args(argv)
+    seed_names = ["cross 0"] + [name for name in args.seeds if name != "cross 0"]
 
     import matplotlib
 
@@ -140,10 +186,10 @@ def main(argv=None):
     import matplotlib.pyplot as plt
 
     rows = []
-    fig, axes = plt.subplots(len(args.cases), len(SEEDS), figsize=(3 * len(SEEDS), 3 * len(args.cases)),
+    fig, axes = plt.subplots(len(args.cases), len(seed_names), figsize=(3 * len(seed_names), 3 * len(args.cases)),
                              squeeze=False)
     for axes_row, name in zip(axes, args.cases):
-        case_rows, fields = run_case(name, args.cells, args.max_iter)
+        case_rows, fields = run_case(name, args.cells, args.max_iter, seed_names)
         rows += case_rows
         reference = case_rows[0]["total"]
         for ax, row in zip(axes_row, case_rows):
@@ -155,16 +201,19 @@ def main(argv=None):
     args.out.mkdir(parents=True, exist_ok=True)
     fig.suptitle(f"final damage from each seed, {args.cells}^2 cells; total energy against cross 0", fontsize=10)
     fig.tight_layout()
-    fig.savefig(args.out / "branching_seeds.png", dpi=80)
+    fig.savefig(args.out / f"{args.stem}.png", dpi=80)
 
-    with open(args.out / "branching_seeds.csv", "w", newline="") as fh:
+    with open(args.out / f"{args.stem}.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
+    seeds_option = "" if seed_names == list(SEEDS) else (
+        " --seeds " + " ".join(f"'{name}'" for name in seed_names) + f" --stem {args.stem}")
     lines = [
-        "# Crosses against three-armed stars under the small indenter (seeded, one load)",
+        "# Seeded crack patterns under the small indenter (one load, no irreversibility)",
         "",
-        f"`python benchmarks/bench_branching_seeds.py --cells {args.cells} --cases {' '.join(args.cases)}` "
+        f"`python benchmarks/bench_branching_seeds.py --cells {args.cells} --cases {' '.join(args.cases)}"
+        f"{seeds_option}` "
         f"({platform.machine()}, Python {platform.python_version()}). eta = {ETA:.4g} = "
         f"{ETA / (2 * HALF_WIDTH / args.cells):.3g} dx, winkler = 6.4e7, R = 0.1, unrestricted. "
         "Energies of the final states; `- cross 0` is the total energy minus that of the axis cross; "
@@ -178,7 +227,7 @@ def main(argv=None):
         lines.append(f"| {row['case']} | {row['toughness']} | {row['t']} | {row['seed']} | {row['total']:.6f} | "
                      f"{row['elastic']:.6f} | {row['surface']:.6f} | {row['total'] - reference:+.6f} | "
                      f"{row['iterations']} | {row['seconds']:.0f} |")
-    (args.out / "branching_seeds.md").write_text("\n".join(lines) + "\n")
+    (args.out / f"{args.stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
 
