@@ -109,8 +109,9 @@ def segments(seed_name, eta, length):
     (:data:`DOUBLE_Y`) has its central segment of length ``2 c`` along x and four arms of
     ``length`` from its ends, at 60 degrees to the x axis.
     """
-    if seed_name in SEEDS or seed_name in RINGED:
-        directions = np.radians(SEEDS.get(seed_name, RINGED.get(seed_name)))
+    arms = {**SEEDS, **RINGED}
+    if seed_name in arms:
+        directions = np.radians(arms[seed_name])
         return [((0.0, 0.0), (length * np.cos(a), length * np.sin(a))) for a in directions]
     c = DOUBLE_Y[seed_name] * eta
     pieces = [((-c, 0.0), (c, 0.0))]
