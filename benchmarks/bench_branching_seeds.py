@@ -39,6 +39,8 @@ Usage (the defaults are the three Fig. 2.14 cases at the dissertation's eta = 0.
         'star 0 + ring' --stem branching_seeds_ring_G07              # 5 minutes
 
 Writes ``benchmarks/results/branching_seeds.md``, ``.csv`` and ``.png`` (``--stem`` names them).
+``bench_branching_extrapolation.py`` takes the ``.csv`` files of several grids (``--cells``) and
+extrapolates each seed's energy against the cross to ``h = 0``.
 """
 
 from __future__ import annotations

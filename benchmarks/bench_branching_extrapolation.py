@@ -1,0 +1,166 @@
+"""Seeded crack patterns of Fig. 2.14 extrapolated to the continuum (h -> 0 at fixed eta).
+
+``bench_branching_seeds.py`` ranks crosses, stars and double branches by their energies at one
+load, on one grid. Those energies carry the grid's bias for the axes, an error of first order in
+``h / eta`` (``bench_crack_orientation.py``) that is as large as the differences between the
+patterns. This study takes the results of several grids for the same seeds and extrapolates the
+difference ``D(h) = E(seed) - E(cross 0)`` to ``h = 0``:
+
+- with three grids, it fits ``D(h) = D0 + C h^p`` through the three points (``p`` from the
+  ratio of the two successive changes, then ``C`` and ``D0``): the fitted order ``p`` says
+  whether the grids are in the asymptotic range at all;
+- with two or more grids, it also gives the first-order estimate from the two finest,
+  ``D0 = D(h2) - h2 (D(h1) - D(h2)) / (h1 - h2)``.
+
+It runs no solver: it reads the ``.csv`` files that ``bench_branching_seeds.py`` wrote (one per
+grid, or several grids in one), keeps the seeds that settled (a seed still moving after its
+iteration limit has no energy) and that at least two grids have, and writes a table. It does not know
+whether a seed ended as the same pattern on every grid: check the seeds' ``.png`` figures.
+
+Usage::
+
+    python benchmarks/bench_branching_extrapolation.py \\
+        benchmarks/results/branching_seeds_240.csv \\
+        benchmarks/results/branching_seeds_double_y.csv \\
+        benchmarks/results/branching_seeds_G07_720.csv \\
+        benchmarks/results/branching_seeds_G15_720.csv \\
+        benchmarks/results/branching_seeds_G20_720.csv
+
+Writes ``benchmarks/results/branching_extrapolation.md`` and ``.csv`` (``--stem`` names them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+from scipy.optimize import brentq
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))  # run from a checkout
+
+from bench_branching_seeds import ETA, HALF_WIDTH  # noqa: E402
+
+REFERENCE = "cross 0"
+# Seeds that end as the same pattern on every grid of the study (its figures): a double Y of
+# c = 6 eta does not (at G/a = 0.7 its arcs grow with the resolution and close into a loop at
+# eta = 3.3 dx), so its energies on different grids are not one quantity's.
+SAME_PATTERN = ("star 0", "double Y 1.5", "double Y 3")
+
+
+def fitted_order(h, d):
+    """The order ``p`` of ``d = d0 + c h^p`` through three points, ``h`` decreasing.
+
+    Solves ``(d1 - d2) / (d2 - d3) = (h1^p - h2^p) / (h2^p - h3^p)`` for ``p`` in (0.05, 6).
+    Returns NaN when the changes differ in sign (not monotone: no power law fits) or no ``p``
+    in that range does.
+    """
+    (h1, h2, h3), (d1, d2, d3) = h, d
+    if (d1 - d2) * (d2 - d3) <= 0.0:
+        return math.nan
+    ratio = (d1 - d2) / (d2 - d3)
+
+    def mismatch(p):
+        return (h1**p - h2**p) / (h2**p - h3**p) - ratio
+
+    try:
+        return brentq(mismatch, 0.05, 6.0)
+    except ValueError:  # no sign change: the ratio is outside what p in (0.05, 6) gives
+        return math.nan
+
+
+def extrapolate(h, d):
+    """Continuum estimates of ``d(h)`` from grids ``h`` (decreasing, at least two).
+
+    Returns
+    -------
+    p, d0_fit : float
+        The fitted order and limit through the three finest grids (NaN with two grids or when
+        :func:`fitted_order` finds none).
+    d0_first : float
+        The first-order limit from the two finest grids.
+    """
+    h1, h2 = h[-2:]
+    d1, d2 = d[-2:]
+    d0_first = d2 - h2 * (d1 - d2) / (h1 - h2)
+    p = d0_fit = math.nan
+    if len(h) >= 3:
+        p = fitted_order(h[-3:], d[-3:])
+        if not math.isnan(p):
+            c = (d[-2] - d[-1]) / (h[-2] ** p - h[-1] ** p)
+            d0_fit = d[-1] - c * h[-1] ** p
+    return p, d0_fit, d0_first
+
+
+def read_totals(paths):
+    """Total energies by ``(case, seed)`` and cells, from ``bench_branching_seeds`` result files;
+    seeds that did not settle (NaN total) are left out."""
+    totals = defaultdict(dict)
+    for path in paths:
+        with open(path, newline="") as fh:
+            for row in csv.DictReader(fh):
+                total = float(row["total"])
+                if not math.isnan(total):
+                    totals[row["case"], row["seed"]][int(row["cells"])] = total
+    return totals
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("results", nargs="+", type=Path, help="bench_branching_seeds .csv files")
+    parser.add_argument("--seeds", nargs="+", default=list(SAME_PATTERN),
+                        help="seeds to extrapolate (check that each ends as one pattern on every grid)")
+    parser.add_argument("--stem", default="branching_extrapolation", help="name of the result files")
+    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    args = parser.parse_args(argv)
+
+    totals = read_totals(args.results)
+    rows = []
+    for (case, seed), by_cells in sorted(totals.items()):
+        reference = totals.get((case, REFERENCE), {})
+        cells = sorted(set(by_cells) & set(reference))  # coarse to fine
+        if seed not in args.seeds or len(cells) < 2:
+            continue
+        h = [2 * HALF_WIDTH / n / ETA for n in cells]  # h / eta
+        d = [by_cells[n] - reference[n] for n in cells]
+        p, d0_fit, d0_first = extrapolate(h, d)
+        rows.append({"case": case, "seed": seed, "cells": " ".join(map(str, cells)),
+                     "h_over_eta": " ".join(f"{x:.3g}" for x in h), "difference": " ".join(f"{x:+.6f}" for x in d),
+                     "order": p, "limit_fitted": d0_fit, "limit_first_order": d0_first,
+                     "cross_total": " ".join(f"{reference[n]:.6f}" for n in cells)})
+
+    args.out.mkdir(parents=True, exist_ok=True)
+    with open(args.out / f"{args.stem}.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    inputs = " ".join(map(str, args.results))
+    if list(args.seeds) != list(SAME_PATTERN):
+        inputs += " --seeds " + " ".join(f"'{name}'" for name in args.seeds)
+    lines = [
+        "# Seeded Fig. 2.14 patterns: energy against the axis cross, extrapolated to h = 0",
+        "",
+        f"`python benchmarks/bench_branching_extrapolation.py {inputs}`. eta = {ETA:.4g}; "
+        "`E - E(cross 0)` on each grid (coarse to fine); the order `p` and limit of "
+        "`D0 + C h^p` through the three finest grids (blank: fewer than three grids, or the "
+        "changes are not monotone); the first-order limit from the two finest grids; and the "
+        "cross's own total energy on each grid.",
+        "",
+        "| case | seed | h / eta | E - E(cross 0) | fitted order p | limit, fitted | limit, first order | cross 0 total |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for row in rows:
+        order = "" if math.isnan(row["order"]) else f"{row['order']:.2f}"
+        fitted = "" if math.isnan(row["limit_fitted"]) else f"{row['limit_fitted']:+.4f}"
+        lines.append(f"| {row['case']} | {row['seed']} | {row['h_over_eta']} | {row['difference']} | {order} | "
+                     f"{fitted} | {row['limit_first_order']:+.4f} | {row['cross_total']} |")
+    (args.out / f"{args.stem}.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
