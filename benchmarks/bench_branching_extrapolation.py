@@ -9,6 +9,7 @@ difference ``D(h) = E(seed) - E(cross 0)`` to ``h = 0``:
 - with three grids, it fits ``D(h) = D0 + C h^p`` through the three points (``p`` from the
   ratio of the two successive changes, then ``C`` and ``D0``): the fitted order ``p`` says
   whether the grids are in the asymptotic range at all;
+- with four or more, it fits the three finest and, as a check, the three coarsest;
 - with two or more grids, it also gives the first-order estimate from the two finest,
   ``D0 = D(h2) - h2 (D(h1) - D(h2)) / (h1 - h2)``.
 
@@ -22,8 +23,10 @@ Usage::
     python benchmarks/bench_branching_extrapolation.py \\
         benchmarks/results/branching_seeds_240.csv \\
         benchmarks/results/branching_seeds_double_y.csv \\
+        benchmarks/results/branching_seeds_480.csv \\
         benchmarks/results/branching_seeds_G07_720.csv \\
         benchmarks/results/branching_seeds_G15_720.csv \\
+        benchmarks/results/branching_seeds_G15_720_y15.csv \\
         benchmarks/results/branching_seeds_G20_720.csv
 
 Writes ``benchmarks/results/branching_extrapolation.md`` and ``.csv`` (``--stem`` names them).
@@ -73,27 +76,36 @@ def fitted_order(h, d):
         return math.nan
 
 
+def power_limit(h, d):
+    """The order ``p`` and limit ``d0`` of ``d = d0 + c h^p`` through three points, ``h``
+    decreasing (NaN, NaN when :func:`fitted_order` finds no order)."""
+    p = fitted_order(h, d)
+    if math.isnan(p):
+        return math.nan, math.nan
+    c = (d[1] - d[2]) / (h[1] ** p - h[2] ** p)
+    return p, d[2] - c * h[2] ** p
+
+
 def extrapolate(h, d):
     """Continuum estimates of ``d(h)`` from grids ``h`` (decreasing, at least two).
 
     Returns
     -------
-    p, d0_fit : float
-        The fitted order and limit through the three finest grids (NaN with two grids or when
-        :func:`fitted_order` finds none).
+    fine : tuple of float
+        ``(p, d0)`` through the three finest grids (NaN with two grids, see :func:`power_limit`).
+    coarse : tuple of float
+        ``(p, d0)`` through the three coarsest grids when there are four or more: a second
+        estimate from other data, which shows how far the grids are from the asymptotic range
+        (NaN with fewer grids).
     d0_first : float
         The first-order limit from the two finest grids.
     """
     h1, h2 = h[-2:]
     d1, d2 = d[-2:]
     d0_first = d2 - h2 * (d1 - d2) / (h1 - h2)
-    p = d0_fit = math.nan
-    if len(h) >= 3:
-        p = fitted_order(h[-3:], d[-3:])
-        if not math.isnan(p):
-            c = (d[-2] - d[-1]) / (h[-2] ** p - h[-1] ** p)
-            d0_fit = d[-1] - c * h[-1] ** p
-    return p, d0_fit, d0_first
+    fine = power_limit(h[-3:], d[-3:]) if len(h) >= 3 else (math.nan, math.nan)
+    coarse = power_limit(h[:3], d[:3]) if len(h) >= 4 else (math.nan, math.nan)
+    return fine, coarse, d0_first
 
 
 def read_totals(paths):
@@ -127,10 +139,11 @@ def main(argv=None):
             continue
         h = [2 * HALF_WIDTH / n / ETA for n in cells]  # h / eta
         d = [by_cells[n] - reference[n] for n in cells]
-        p, d0_fit, d0_first = extrapolate(h, d)
+        (p, d0_fit), (p_coarse, d0_coarse), d0_first = extrapolate(h, d)
         rows.append({"case": case, "seed": seed, "cells": " ".join(map(str, cells)),
                      "h_over_eta": " ".join(f"{x:.3g}" for x in h), "difference": " ".join(f"{x:+.6f}" for x in d),
-                     "order": p, "limit_fitted": d0_fit, "limit_first_order": d0_first,
+                     "order": p, "limit_fitted": d0_fit, "order_coarse": p_coarse, "limit_fitted_coarse": d0_coarse,
+                     "limit_first_order": d0_first,
                      "cross_total": " ".join(f"{reference[n]:.6f}" for n in cells)})
 
     args.out.mkdir(parents=True, exist_ok=True)
@@ -146,18 +159,23 @@ def main(argv=None):
         "",
         f"`python benchmarks/bench_branching_extrapolation.py {inputs}`. eta = {ETA:.4g}; "
         "`E - E(cross 0)` on each grid (coarse to fine); the order `p` and limit of "
-        "`D0 + C h^p` through the three finest grids (blank: fewer than three grids, or the "
-        "changes are not monotone); the first-order limit from the two finest grids; and the "
-        "cross's own total energy on each grid.",
+        "`D0 + C h^p` through the three finest grids and, with four or more, through the "
+        "three coarsest (blank: too few grids, or the changes are not monotone); the "
+        "first-order limit from the two finest grids; and the cross's own total energy on each grid.",
         "",
-        "| case | seed | h / eta | E - E(cross 0) | fitted order p | limit, fitted | limit, first order | cross 0 total |",
-        "|---|---|---|---|---|---|---|---|",
+        "| case | seed | h / eta | E - E(cross 0) | p, finest three | limit, finest three | "
+        "p, coarsest three | limit, coarsest three | limit, first order | cross 0 total |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
+
+    def number(value, spec):
+        return "" if math.isnan(value) else format(value, spec)
+
     for row in rows:
-        order = "" if math.isnan(row["order"]) else f"{row['order']:.2f}"
-        fitted = "" if math.isnan(row["limit_fitted"]) else f"{row['limit_fitted']:+.4f}"
-        lines.append(f"| {row['case']} | {row['seed']} | {row['h_over_eta']} | {row['difference']} | {order} | "
-                     f"{fitted} | {row['limit_first_order']:+.4f} | {row['cross_total']} |")
+        lines.append(f"| {row['case']} | {row['seed']} | {row['h_over_eta']} | {row['difference']} | "
+                     f"{number(row['order'], '.2f')} | {number(row['limit_fitted'], '+.4f')} | "
+                     f"{number(row['order_coarse'], '.2f')} | {number(row['limit_fitted_coarse'], '+.4f')} | "
+                     f"{row['limit_first_order']:+.4f} | {row['cross_total']} |")
     (args.out / f"{args.stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 
