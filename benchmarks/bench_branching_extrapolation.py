@@ -24,6 +24,7 @@ Usage::
         benchmarks/results/branching_seeds_240.csv \\
         benchmarks/results/branching_seeds_double_y.csv \\
         benchmarks/results/branching_seeds_480.csv \\
+        benchmarks/results/branching_seeds_480_double_y.csv \\
         benchmarks/results/branching_seeds_G07_720.csv \\
         benchmarks/results/branching_seeds_G15_720.csv \\
         benchmarks/results/branching_seeds_G15_720_y15.csv \\
