@@ -210,13 +210,19 @@ def main(argv=None):
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    seeds_option = "" if seed_names == list(SEEDS) else (
-        " --seeds " + " ".join(f"'{name}'" for name in seed_names) + f" --stem {args.stem}")
+    # the options that differ from the defaults, so that the file names the command that made it
+    options = ""
+    if seed_names != list(SEEDS):
+        options += " --seeds " + " ".join(f"'{name}'" for name in seed_names)
+    if args.stem != parser.get_default("stem"):
+        options += f" --stem {args.stem}"
+    if args.max_iter != parser.get_default("max_iter"):
+        options += f" --max-iter {args.max_iter}"
     lines = [
         "# Seeded crack patterns under the small indenter (one load, no irreversibility)",
         "",
         f"`python benchmarks/bench_branching_seeds.py --cells {args.cells} --cases {' '.join(args.cases)}"
-        f"{seeds_option}` "
+        f"{options}` "
         f"({platform.machine()}, Python {platform.python_version()}). eta = {ETA:.4g} = "
         f"{ETA / (2 * HALF_WIDTH / args.cells):.3g} dx, winkler = 6.4e7, R = 0.1, unrestricted. "
         "Energies of the final states; `- cross 0` is the total energy minus that of the axis cross; "
