@@ -38,7 +38,8 @@ Usage (the defaults are the three Fig. 2.14 cases at the dissertation's eta = 0.
     python benchmarks/bench_branching_seeds.py --cases G07 --seeds ring 'cross 0 + ring' \
         'star 0 + ring' --stem branching_seeds_ring_G07              # 5 minutes
 
-Writes ``benchmarks/results/branching_seeds.md``, ``.csv`` and ``.png`` (``--stem`` names them).
+Writes ``benchmarks/results/branching_seeds.md``, ``.csv`` and ``.png`` (``--stem`` names them),
+and with ``--save-alpha`` the final damage fields in ``_alpha.npz``.
 ``bench_branching_extrapolation.py`` takes the ``.csv`` files of several grids (``--cells``) and
 extrapolates each seed's energy against the cross to ``h = 0``.
 """
@@ -180,6 +181,8 @@ def main(argv=None):
                         help="patterns to seed (cross 0, the reference, is always run first)")
     parser.add_argument("--stem", default="branching_seeds", help="name of the result files")
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    parser.add_argument("--save-alpha", action="store_true",
+                        help="also write every final damage field to <stem>_alpha.npz (key 'CASE SEED')")
     args = parser.parse_args(argv)
     seed_names = ["cross 0"] + [name for name in args.seeds if name != "cross 0"]
 
@@ -188,12 +191,13 @@ def main(argv=None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = []
+    rows, all_fields = [], {}
     fig, axes = plt.subplots(len(args.cases), len(seed_names), figsize=(3 * len(seed_names), 3 * len(args.cases)),
                              squeeze=False)
     for axes_row, name in zip(axes, args.cases):
         case_rows, fields = run_case(name, args.cells, args.max_iter, seed_names)
         rows += case_rows
+        all_fields.update({f"{name} {seed}": field for seed, field in fields.items()})
         reference = case_rows[0]["total"]
         for ax, row in zip(axes_row, case_rows):
             ax.imshow(fields[row["seed"]], origin="lower", extent=[-HALF_WIDTH, HALF_WIDTH] * 2,
@@ -206,6 +210,8 @@ def main(argv=None):
     fig.tight_layout()
     fig.savefig(args.out / f"{args.stem}.png", dpi=80)
 
+    if args.save_alpha:  # nodal damage, shape (cells + 1, cells + 1), y first
+        np.savez_compressed(args.out / f"{args.stem}_alpha.npz", **all_fields)
     with open(args.out / f"{args.stem}.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
@@ -218,6 +224,8 @@ def main(argv=None):
         options += f" --stem {args.stem}"
     if args.max_iter != parser.get_default("max_iter"):
         options += f" --max-iter {args.max_iter}"
+    if args.save_alpha:
+        options += " --save-alpha"
     lines = [
         "# Seeded crack patterns under the small indenter (one load, no irreversibility)",
         "",

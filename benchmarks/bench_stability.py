@@ -51,7 +51,7 @@ def lanczos(plate, damage, alpha, w, lower, tol):
     m = len(problem.free)
     values = spla.eigsh(problem.operator, k=K, which="SA", tol=tol, v0=np.ones(m), maxiter=100 * m,
                         return_eigenvectors=False)
-    return np.sort(values), problem.solves[0]
+    return np.sort(values), problem.solves
 
 
 def main():

@@ -165,16 +165,16 @@ class ReducedProblem:
         ``E_aa`` on the free nodes.
     operator : scipy.sparse.linalg.LinearOperator, shape (m, m)
         ``diag(scale) H_FF diag(scale)``, symmetric.
-    solves : list of int
-        ``[n]``: the linear solves (Hessian products) done so far.
+    solves : int
+        The linear solves (Hessian products) done so far by :attr:`operator`.
     """
 
     u: np.ndarray
     free: np.ndarray
     scale: np.ndarray
     A_ff: object
-    operator: spla.LinearOperator
-    solves: list
+    operator: spla.LinearOperator = None  # set by reduced_problem, which counts its solves
+    solves: int = 0
 
 
 def reduced_problem(plate: PlateOperator, damage: DamageOperator, alpha, w, lower, solver=None) -> ReducedProblem:
@@ -189,20 +189,20 @@ def reduced_problem(plate: PlateOperator, damage: DamageOperator, alpha, w, lowe
     solver.update(K)
     u, _ = solver.solve(plate.rhs(w))
     free = free_nodes(alpha, lower)
-    solves = [0]
+    A_ff = damage_hessian(plate, damage, u, free)
+    scale = 1.0 / np.sqrt(plate.grid.weights[free])
+    problem = ReducedProblem(u, free, scale, A_ff)
 
     def solve(v):
-        solves[0] += 1
+        problem.solves += 1
         return solver.solve(v)[0]
 
-    A_ff = damage_hessian(plate, damage, u, free)
     product = reduced_hessian(plate, damage, u, alpha, free, solve, A_ff)
-    scale = 1.0 / np.sqrt(plate.grid.weights[free])
     m = len(free)
-    operator = spla.LinearOperator((m, m), matvec=lambda x: scale * product(scale * np.ravel(x)),
-                                   matmat=lambda X: np.column_stack([scale * product(scale * x) for x in X.T]),
-                                   dtype=float)
-    return ReducedProblem(u, free, scale, A_ff, operator, solves)
+    problem.operator = spla.LinearOperator(
+        (m, m), matvec=lambda x: scale * product(scale * np.ravel(x)),
+        matmat=lambda X: np.column_stack([scale * product(scale * x) for x in X.T]), dtype=float)
+    return problem
 
 
 def lowest_modes(plate: PlateOperator, damage: DamageOperator, alpha, w, lower, k=4, tol=1e-4, maxiter=300,
@@ -257,4 +257,4 @@ def lowest_modes(plate: PlateOperator, damage: DamageOperator, alpha, w, lower, 
     for row, j in enumerate(order):
         mode = scale * vectors[:, j]
         modes[row, free] = mode / np.abs(mode).max()
-    return Modes(values[order], modes, free, problem.u, problem.solves[0])
+    return Modes(values[order], modes, free, problem.u, problem.solves)
