@@ -28,7 +28,8 @@ Usage::
         benchmarks/results/branching_seeds_G07_720.csv \\
         benchmarks/results/branching_seeds_G15_720.csv \\
         benchmarks/results/branching_seeds_G15_720_y15.csv \\
-        benchmarks/results/branching_seeds_G20_720.csv
+        benchmarks/results/branching_seeds_G20_720.csv \\
+        benchmarks/results/branching_seeds_G20_720_y15.csv
 
 Writes ``benchmarks/results/branching_extrapolation.md`` and ``.csv`` (``--stem`` names them).
 """
@@ -111,14 +112,25 @@ def extrapolate(h, d):
 
 def read_totals(paths):
     """Total energies by ``(case, seed)`` and cells, from ``bench_branching_seeds`` result files;
-    seeds that did not settle (NaN total) are left out."""
+    seeds that did not settle (NaN total) are left out.
+
+    Two files may hold the same seed on the same grid (the cross is in every file); the runs are
+    deterministic, so their totals must agree: a ``ValueError`` names any pair that differs by
+    more than 1e-6.
+    """
     totals = defaultdict(dict)
     for path in paths:
         with open(path, newline="") as fh:
             for row in csv.DictReader(fh):
                 total = float(row["total"])
-                if not math.isnan(total):
-                    totals[row["case"], row["seed"]][int(row["cells"])] = total
+                if math.isnan(total):
+                    continue
+                key, cells = (row["case"], row["seed"]), int(row["cells"])
+                earlier = totals[key].get(cells)
+                if earlier is not None and abs(earlier - total) > 1e-6:
+                    raise ValueError(f"{path}: {key[0]} {key[1]!r} on {cells} cells has total {total:.6f}, "
+                                     f"another file {earlier:.6f}")
+                totals[key][cells] = total
     return totals
 
 
@@ -147,6 +159,9 @@ def main(argv=None):
                      "limit_first_order": d0_first,
                      "cross_total": " ".join(f"{reference[n]:.6f}" for n in cells)})
 
+    if not rows:
+        parser.exit(2, f"{parser.prog}: no seed of {', '.join(args.seeds)} has settled on two or more grids "
+                       "in these files (each grid needs the cross as well)\n")
     args.out.mkdir(parents=True, exist_ok=True)
     with open(args.out / f"{args.stem}.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))

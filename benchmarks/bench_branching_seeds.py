@@ -26,7 +26,8 @@ and, on request (``--seeds``), patterns with two branch points or a ring crack:
 and runs alternate minimization at the load ``t`` from each seed with no irreversibility
 bound (``Engine.run`` with the seed as the step's starting guess, the scene's own solver
 options), so that arms may grow, shrink or turn. It reports each final state's energies,
-iterations and time, and the final damage fields in a figure.
+branch points (number and spacing), iterations and time, and the final damage fields in a
+figure.
 
 Usage (the defaults are the three Fig. 2.14 cases at the dissertation's eta = 0.0033 = 5 dx,
 360 x 360 cells on (-0.12, 0.12)^2, unrestricted, at their last loads; about 18 minutes, most of it in the G/a = 2.0 stars)::
@@ -58,6 +59,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
+from thinfilm.cracks import branch_points  # noqa: E402
 from thinfilm.evolution import EvolutionError  # noqa: E402
 from thinfilm.loads import contact_radius  # noqa: E402
 from thinfilm.model import crack_profile  # noqa: E402
@@ -139,6 +141,15 @@ def seed_damage(grid, eta, pieces, ring_radius=None):
     return crack_profile(distance, eta, 1)
 
 
+def junctions(alpha, grid):
+    """Branch points of a final damage field (:func:`thinfilm.cracks.branch_points`, circles of
+    1.5 eta, as ``bench_imperfect_branching`` reads them): their number and largest distance
+    apart in units of eta (0 for fewer than two)."""
+    points = branch_points(alpha, np.asarray(grid.x), np.asarray(grid.y), 1.5 * ETA)
+    spacing = max((np.hypot(a[0] - b[0], a[1] - b[1]) for a in points for b in points), default=0.0)
+    return len(points), spacing / ETA
+
+
 def run_case(name, cells, max_iter, seed_names):
     toughness, t, length = CASES[name]
     scene = parse_scene(SCENE.format(toughness=toughness, eta=ETA, half=HALF_WIDTH, cells=cells, t=t,
@@ -157,15 +168,17 @@ def run_case(name, cells, max_iter, seed_names):
             print(f"{name} {seed_name:9s} {err}", flush=True)
             rows.append({"case": name, "toughness": toughness, "t": t, "cells": cells, "seed": seed_name,
                          "total": np.nan, "elastic": np.nan, "surface": np.nan, "iterations": -max_iter,
-                         "seconds": time.perf_counter() - start})
+                         "seconds": time.perf_counter() - start, "branch_points": -1, "spacing": np.nan})
             fields[seed_name] = np.zeros((grid.ny + 1, grid.nx + 1))
             continue
         seconds = time.perf_counter() - start
         state = states[-1]
         fields[seed_name] = state.alpha.reshape(grid.ny + 1, grid.nx + 1)
+        count, spacing = junctions(fields[seed_name], grid)
         rows.append({"case": name, "toughness": toughness, "t": t, "cells": cells, "seed": seed_name,
                      "total": state.total, "elastic": state.elastic, "surface": state.surface,
-                     "iterations": records[-1].iterations, "seconds": seconds})
+                     "iterations": records[-1].iterations, "seconds": seconds,
+                     "branch_points": count, "spacing": spacing})
         print(f"{name} {seed_name:9s} total {state.total:.6f} its {records[-1].iterations} {seconds:.0f} s",
               flush=True)
     return rows, fields
@@ -234,15 +247,20 @@ def main(argv=None):
         f"({platform.machine()}, Python {platform.python_version()}). eta = {ETA:.4g} = "
         f"{ETA / (2 * HALF_WIDTH / args.cells):.3g} dx, winkler = 6.4e7, R = 0.1, unrestricted. "
         "Energies of the final states; `- cross 0` is the total energy minus that of the axis cross; "
-        f"iterations -{args.max_iter}: still moving after {args.max_iter} iterations (not a minimizer).",
+        f"iterations -{args.max_iter}: still moving after {args.max_iter} iterations (not a minimizer). "
+        "Branch points: clusters of broken nodes about which three or more cracks cut a circle of radius "
+        "1.5 eta (`thinfilm.cracks.branch_points`; closer than about 2-3 eta they read as one); spacing: "
+        "the largest distance between two of them, in eta.",
         "",
-        "| case | G/a | t | seed | total | elastic | surface | - cross 0 | iterations | time (s) |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| case | G/a | t | seed | total | elastic | surface | - cross 0 | branch points | spacing / eta "
+        "| iterations | time (s) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for row in rows:
         reference = next(r["total"] for r in rows if r["case"] == row["case"] and r["seed"] == "cross 0")
         lines.append(f"| {row['case']} | {row['toughness']} | {row['t']} | {row['seed']} | {row['total']:.6f} | "
                      f"{row['elastic']:.6f} | {row['surface']:.6f} | {row['total'] - reference:+.6f} | "
+                     f"{row['branch_points'] if row['branch_points'] >= 0 else '-'} | {row['spacing']:.2f} | "
                      f"{row['iterations']} | {row['seconds']:.0f} |")
     (args.out / f"{args.stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
