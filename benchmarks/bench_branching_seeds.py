@@ -59,7 +59,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
-from thinfilm.cracks import branch_points  # noqa: E402
+from thinfilm.cracks import branch_points, branch_spacing  # noqa: E402
 from thinfilm.evolution import EvolutionError  # noqa: E402
 from thinfilm.loads import contact_radius  # noqa: E402
 from thinfilm.model import crack_profile  # noqa: E402
@@ -145,9 +145,8 @@ def junctions(alpha, grid):
     """Branch points of a final damage field (:func:`thinfilm.cracks.branch_points`, circles of
     1.5 eta, as ``bench_imperfect_branching`` reads them): their number and largest distance
     apart in units of eta (0 for fewer than two)."""
-    points = branch_points(alpha, np.asarray(grid.x), np.asarray(grid.y), 1.5 * ETA)
-    spacing = max((np.hypot(a[0] - b[0], a[1] - b[1]) for a in points for b in points), default=0.0)
-    return len(points), spacing / ETA
+    points = branch_points(alpha, grid.x, grid.y, 1.5 * ETA)
+    return len(points), branch_spacing(points) / ETA
 
 
 def run_case(name, cells, max_iter, seed_names):
@@ -258,9 +257,12 @@ def main(argv=None):
     ]
     for row in rows:
         reference = next(r["total"] for r in rows if r["case"] == row["case"] and r["seed"] == "cross 0")
+        # an unsettled seed has no final state to read branch points from
+        junction_cells = (f"{row['branch_points']} | {row['spacing']:.2f}" if row["branch_points"] >= 0
+                          else "- | -")
         lines.append(f"| {row['case']} | {row['toughness']} | {row['t']} | {row['seed']} | {row['total']:.6f} | "
                      f"{row['elastic']:.6f} | {row['surface']:.6f} | {row['total'] - reference:+.6f} | "
-                     f"{row['branch_points'] if row['branch_points'] >= 0 else '-'} | {row['spacing']:.2f} | "
+                     f"{junction_cells} | "
                      f"{row['iterations']} | {row['seconds']:.0f} |")
     (args.out / f"{args.stem}.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -63,7 +63,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
-from thinfilm.cracks import CRACK_THRESHOLD, arms, branch_points  # noqa: E402
+from thinfilm.cracks import CRACK_THRESHOLD, arms, branch_points, branch_spacing  # noqa: E402
 from thinfilm.loads import contact_radius  # noqa: E402
 from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
@@ -159,11 +159,10 @@ def run(name, noise, seed, grid_lines, checked=False):
         inner_radius = 0.8 * contact_radius(scene.load.radius, t_values[k])
         n_arms, gaps = pattern(alpha, x, y, inner_radius, scene.model.eta)
         junctions = branch_points(alpha, x, y, 1.5 * scene.model.eta, within=np.hypot(X, Y) < inner_radius)
-        spacing = max((np.hypot(a[0] - b[0], a[1] - b[1]) for a in junctions for b in junctions), default=0.0)
         out.append({"case": name, "toughness": scene.model.toughness, "noise": noise,
                     "seed": seed if noise else ("stability" if checked else "-"),
                     "t": round(float(t_values[k]), 6), "arms": n_arms, "gaps": " ".join(map(str, gaps)),
-                    "branch_points": len(junctions), "spacing": spacing / scene.model.eta,
+                    "branch_points": len(junctions), "spacing": branch_spacing(junctions) / scene.model.eta,
                     "total": states[k].total, "iterations": sum(r.iterations for r in records),
                     "seconds": seconds})
     final = states[-1].alpha.reshape(grid.ny + 1, grid.nx + 1)

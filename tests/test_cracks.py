@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from thinfilm.cracks import branch_points
+from thinfilm.cracks import branch_points, branch_spacing
 from thinfilm.model import crack_profile
 
 # A grid of 0.5e-3 on (-0.06, 0.06)^2 and drawn AT1 cracks (eta = 2e-3) with a broken core
@@ -49,11 +49,13 @@ def test_two_branch_points_at_their_drawn_places(spacing):
     # two cells of the junction.
     assert (x1, x2) == pytest.approx((-spacing / 2, spacing / 2), abs=1e-3)
     assert (y1, y2) == pytest.approx((0.004, 0.004), abs=1e-3)
+    assert branch_spacing(found) == pytest.approx(spacing, abs=2e-3)
 
 
 def test_junctions_closer_than_twice_the_radius_read_as_a_cross():
     found = branch_points(_drawn(_two_junctions(0.004)), X_NODES, X_NODES, RADIUS)
     assert len(found) == 1
+    assert branch_spacing(found) == 0.0
     assert found[0][2] == 4
     assert found[0][:2] == pytest.approx((0.0, 0.004), abs=1e-3)
 

@@ -142,3 +142,15 @@ def branch_points(alpha, x, y, radius, within=None, threshold=CRACK_THRESHOLD):
         member = labels == k
         found.append((float(X[member].mean()), float(Y[member].mean()), int(count[member].max())))
     return sorted(found, key=lambda p: np.hypot(p[0], p[1]))
+
+
+def branch_spacing(points):
+    """The largest distance between two branch points (units of L): how far apart the branch
+    points of one crack pattern lie, 0 for fewer than two.
+
+    Parameters
+    ----------
+    points : list of (float, float, int)
+        Branch points as :func:`branch_points` returns them.
+    """
+    return max((float(np.hypot(a[0] - b[0], a[1] - b[1])) for a in points for b in points), default=0.0)
