@@ -33,8 +33,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
-from thinfilm.cracks import centre_line, crack_positions  # noqa: E402
-from thinfilm.evolution import AltMinOptions, Engine, StepRecord  # noqa: E402
+from thinfilm.plate.cracks import centre_line, crack_positions  # noqa: E402
+from thinfilm.engine.evolution import AltMinOptions, Engine, StepRecord  # noqa: E402
 from thinfilm.run import build_grid, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 

@@ -59,10 +59,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
-from thinfilm.cracks import branch_points, branch_spacing  # noqa: E402
-from thinfilm.evolution import EvolutionError  # noqa: E402
-from thinfilm.loads import contact_radius  # noqa: E402
-from thinfilm.model import crack_profile  # noqa: E402
+from thinfilm.plate.cracks import branch_points, branch_spacing  # noqa: E402
+from thinfilm.engine.evolution import EvolutionError  # noqa: E402
+from thinfilm.plate.loads import contact_radius  # noqa: E402
+from thinfilm.plate.model import crack_profile  # noqa: E402
 from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 
@@ -142,7 +142,7 @@ def seed_damage(grid, eta, pieces, ring_radius=None):
 
 
 def junctions(alpha, grid):
-    """Branch points of a final damage field (:func:`thinfilm.cracks.branch_points`, circles of
+    """Branch points of a final damage field (:func:`thinfilm.plate.cracks.branch_points`, circles of
     1.5 eta, as ``bench_imperfect_branching`` reads them): their number and largest distance
     apart in units of eta (0 for fewer than two)."""
     points = branch_points(alpha, grid.x, grid.y, 1.5 * ETA)
@@ -248,7 +248,7 @@ def main(argv=None):
         "Energies of the final states; `- cross 0` is the total energy minus that of the axis cross; "
         f"iterations -{args.max_iter}: still moving after {args.max_iter} iterations (not a minimizer). "
         "Branch points: clusters of broken nodes about which three or more cracks cut a circle of radius "
-        "1.5 eta (`thinfilm.cracks.branch_points`; closer than about 2-3 eta they read as one); spacing: "
+        "1.5 eta (`thinfilm.plate.cracks.branch_points`; closer than about 2-3 eta they read as one); spacing: "
         "the largest distance between two of them, in eta.",
         "",
         "| case | G/a | t | seed | total | elastic | surface | - cross 0 | branch points | spacing / eta "

@@ -2,7 +2,7 @@
 the centre of the contact, and at its edge, where a ring crack would start.
 
 An AT1 film stays undamaged at a node as long as its undamaged bending energy density ``e``
-(:meth:`thinfilm.model.PlateModel.elastic_density`; the bending energy is ``1/2 g(alpha) e``)
+(:meth:`thinfilm.plate.model.PlateModel.elastic_density`; the bending energy is ``1/2 g(alpha) e``)
 is below the elastic limit ``e_c = (G/a) / (4 c_1 eta) = 3 (G/a) / (8 eta)``: below it the
 derivative of the energy in ``alpha`` at ``alpha = 0``, ``-e + e_c``, is positive. Damage
 therefore nucleates where ``e`` first reaches ``e_c``, and a smaller ``eta`` delays it.
@@ -37,8 +37,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
 from bench_branching_seeds import CASES, ETA, HALF_WIDTH, SCENE  # noqa: E402  (the same Fig. 2.14 scenes)
-from thinfilm.loads import contact_radius  # noqa: E402
-from thinfilm.operators import c_m  # noqa: E402
+from thinfilm.plate.loads import contact_radius  # noqa: E402
+from thinfilm.plate.operators import c_m  # noqa: E402
 from thinfilm.run import build_grid, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 

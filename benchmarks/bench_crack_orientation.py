@@ -5,16 +5,16 @@ The continuum energy is isotropic, so the energy change a straight crack brings 
 length does not depend on its direction. On the grid it does: a crack lying on a row of
 nodes has ``alpha = 1`` at those nodes along its whole length, and only the grid's axes (and
 diagonals) offer such rows. This study measures the effect on the operators of
-:mod:`thinfilm.operators` themselves.
+:mod:`thinfilm.plate.operators` themselves.
 
 Set-up. The square (-0.12, 0.12)^2 with free edges, ``winkler = 6.4e7`` (``1/lam = 0.016``),
 ``nu = 0.3``, ``G/a = 1``, AT1 with ``eta = 0.0075`` (``eta lam = 0.47``), and a uniaxial
 bending load ``w = -t s^2 / 2`` with ``s = x cos(theta) + y sin(theta)``, ``t = 10``. The damage
-is the optimal 1D profile :func:`thinfilm.model.crack_profile` of the distance ``|s - s0|``
+is the optimal 1D profile :func:`thinfilm.plate.model.crack_profile` of the distance ``|s - s0|``
 to the line ``s = s0`` (a crack band perpendicular to the bending direction, at angle
 ``theta`` from the y axis); ``s0 = 0`` puts it through the centre node, ``s0 = h/2`` between
 two node rows. For each band the u-problem is solved with and without damage, and
-``release`` is the change of the energy (elastic + surface, :func:`thinfilm.energy.nodal_energy`)
+``release`` is the change of the energy (elastic + surface, :func:`thinfilm.plate.energy.nodal_energy`)
 inside the disk ``|x| < 0.06``
 divided by the chord 0.12: the energy change per unit crack length (negative: the crack
 pays). The disk keeps the free edges 3.8 decay lengths away (doubling the square changes
@@ -24,7 +24,7 @@ For each ``eta / h`` in (5, 10, 20) the table lists ``release`` at each angle an
 (largest minus smallest over the mean), and the fitted order of the spread in ``h``. A second
 table splits ``release`` into its parts: the bending energy at the nodes (``g_n omega_n Q_n / 2``),
 the twist at the cell centres (each node taking ``g_n`` times a quarter of its four cells', as
-:func:`thinfilm.energy.nodal_energy` shares it), the foundation and the surface energy, to show
+:func:`thinfilm.plate.energy.nodal_energy` shares it), the foundation and the surface energy, to show
 which term of the discrete energy the bias comes from.
 
 Usage::
@@ -49,11 +49,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
-from thinfilm.energy import bending_density, nodal_energy  # noqa: E402
-from thinfilm.grid import Grid  # noqa: E402
-from thinfilm.linsolve import make_solver  # noqa: E402
-from thinfilm.model import crack_profile  # noqa: E402
-from thinfilm.operators import DamageOperator, PlateOperator  # noqa: E402
+from thinfilm.plate.energy import bending_density, nodal_energy  # noqa: E402
+from thinfilm.plate.grid import Grid  # noqa: E402
+from thinfilm.solvers.linear import make_solver  # noqa: E402
+from thinfilm.plate.model import crack_profile  # noqa: E402
+from thinfilm.plate.operators import DamageOperator, PlateOperator  # noqa: E402
 
 HALF_WIDTH = 0.12
 WINKLER, NU, TOUGHNESS, K_RES = 6.4e7, 0.3, 1.0, 1e-6

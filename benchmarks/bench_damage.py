@@ -1,4 +1,4 @@
-"""Benchmark of the damage solver (:func:`thinfilm.damage.solve_box_qp`) on 2D grids.
+"""Benchmark of the damage solver (:func:`thinfilm.solvers.boxqp.solve_box_qp`) on 2D grids.
 
 For each grid of n x n nodes on the unit square (dx = 1/(n-1), eta = 4 dx,
 toughness = 1) it times:
@@ -39,7 +39,7 @@ import scipy
 import scipy.sparse as sp
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from thinfilm.damage import kkt_residual, solve_box_qp  # noqa: E402
+from thinfilm.solvers.boxqp import kkt_residual, solve_box_qp  # noqa: E402
 
 C_M = {1: 2.0 / 3.0, 2: 0.5}
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -1,10 +1,10 @@
 """Error of the regularized evolution against the exact 1D evolution, versus wall time.
 
-Each run is a whole quasi-static evolution (:class:`thinfilm.evolution.Engine` on the scene's
+Each run is a whole quasi-static evolution (:class:`thinfilm.engine.evolution.Engine` on the scene's
 loads) in a fresh subprocess, timed after a warm-up (Numba kernels loaded) from the model's
 assembly to the last step, and compared with the exact evolution of :mod:`onedim` (the
 global minimizer; events located exactly, energies of the exact crack set at each load, as
-:func:`thinfilm.compare.exact_counterpart` does). Cases:
+:func:`thinfilm.plate.compare.exact_counterpart` does). Cases:
 
 ``fig2_5``
     ``cases/fig2_5.toml`` (1D, l0 = 0.5, lam = 10, G/a = 0.05, backtracking standard,
@@ -170,7 +170,7 @@ def evolve_scene(scene, progress=False):
 
     With ``progress``, print one ``PROGRESS`` JSON line per computed step (what a killed run
     got through is read from them)."""
-    from thinfilm.cracks import centre_line, crack_positions
+    from thinfilm.plate.cracks import centre_line, crack_positions
     from thinfilm.run import build_grid, make_engine, make_model
 
     timings = {"time_u": 0.0, "time_alpha": 0.0, "steps_computed": 0, "last_step": 0}
@@ -224,7 +224,7 @@ def worker(spec):
     import warnings
 
     warnings.filterwarnings("ignore")
-    from thinfilm.cracks import centre_line, crack_positions
+    from thinfilm.plate.cracks import centre_line, crack_positions
     from thinfilm.run import crack_events
 
     row = {"key": spec["key"], "status": "ok", "notes": []}
@@ -316,7 +316,7 @@ _EXACT = {}
 
 def exact_for(case, lam, toughness, t):
     """Exact events and total energy (per unit width) at the loads ``t``."""
-    from thinfilm.compare import exact_counterpart
+    from thinfilm.plate.compare import exact_counterpart
 
     x0, x1, _ = GEOMETRY[case]
     key = (case, tuple(np.round(t, 12)))

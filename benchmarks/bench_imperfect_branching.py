@@ -5,11 +5,11 @@ The perfect film's evolutions of ``cases/indentation_branching_*.toml`` pass thr
 D4-symmetric disk of damage and stay symmetric to round-off, ending as crosses along the
 grid axes, although at G/a = 1.5 a three-armed star is the lower state
 (``bench_branching_seeds.py``). A film whose toughness varies a little from place to place
-(``[model] toughness_noise``, :mod:`thinfilm.imperfection`) has no symmetry to stay on. This
+(``[model] toughness_noise``, :mod:`thinfilm.plate.imperfection`) has no symmetry to stay on. This
 study runs each case's whole evolution for the perfect film and for several seeds of an
 imperfect one (the perfect film restricted to D4-symmetric fields, which its
 unrestricted evolution keeps to round-off), and reads the crack pattern at the case's snapshot loads: the cracks that
-cut a circle about the junction of the damage (:func:`thinfilm.cracks.arms`), their number
+cut a circle about the junction of the damage (:func:`thinfilm.plate.cracks.arms`), their number
 and the angles between neighbours (three arms about 120 degrees apart make a star, 90-90-180
 a T, four about 90 apart a cross).
 
@@ -36,7 +36,7 @@ The imperfect film of ``--finer`` with seed 1 is the scene of
 file; 36-77 minutes per evolution).
 
 With ``--stability`` the study runs, instead of imperfect films, the perfect film unrestricted
-with ``[solver] stability = true`` (:mod:`thinfilm.stability`): its evolution leaves the
+with ``[solver] stability = true`` (:mod:`thinfilm.plate.stability`): its evolution leaves the
 symmetric states that are saddles along their most unstable mode.
 
 Writes ``benchmarks/results/imperfect_branching.md``, ``.csv``, ``.png`` and ``_alpha.npz``
@@ -63,8 +63,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
-from thinfilm.cracks import CRACK_THRESHOLD, arms, branch_points, branch_spacing  # noqa: E402
-from thinfilm.loads import contact_radius  # noqa: E402
+from thinfilm.plate.cracks import CRACK_THRESHOLD, arms, branch_points, branch_spacing  # noqa: E402
+from thinfilm.plate.loads import contact_radius  # noqa: E402
 from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 
@@ -188,7 +188,7 @@ def write_results(stem, fig, rows, fields, command):
         f"`{command}` ({platform.machine()}, Python {platform.python_version()}). "
         "Arms: cracks cutting a circle of radius 3 eta about the junction of the damage; gaps: angles between neighbouring "
         "arms (degrees). Branch points: clusters of broken nodes about which three or more cracks cut a circle of "
-        "radius 1.5 eta (`thinfilm.cracks.branch_points`; closer than about 2-3 eta they read as one); spacing: the "
+        "radius 1.5 eta (`thinfilm.plate.cracks.branch_points`; closer than about 2-3 eta they read as one); spacing: the "
         "largest distance between two of them, in eta. The perfect film (noise 0, seed -) runs restricted to D4-symmetric fields, the imperfect "
         "ones and the perfect film with the stability check (seed: stability) unrestricted; time and iterations are "
         "the whole evolution's (with the stability check's).",

@@ -16,10 +16,10 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from thinfilm import energy
-from thinfilm.grid import Grid
-from thinfilm.kernels import plate as kernels
-from thinfilm.operators import PlateOperator
+from thinfilm.plate import energy
+from thinfilm.plate.grid import Grid
+from thinfilm.plate.kernels import stencil as kernels
+from thinfilm.plate.operators import PlateOperator
 
 RESULTS = Path(__file__).resolve().parent / "results"
 

@@ -1,5 +1,5 @@
 """Speed against error of the stability check's eigensolver: LOBPCG preconditioned by the
-damage part of the Hessian (:func:`thinfilm.stability.lowest_modes`) against ARPACK's
+damage part of the Hessian (:func:`thinfilm.plate.stability.lowest_modes`) against ARPACK's
 Lanczos iteration on the same operator.
 
 The states are those of the small indenter's perfect film (G/a = 1.5, eta = 5 dx, 360 x 360
@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT))  # run from a checkout
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from bench_imperfect_branching import FINE, scene_text  # noqa: E402
-from thinfilm import stability  # noqa: E402
+from thinfilm.plate import stability  # noqa: E402
 from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 

@@ -6,7 +6,7 @@ Each case's perfect-film evolution is run restricted to D4-symmetric fields (the
 unrestricted evolution follows to round-off), at the dissertation's eta = 5 dx (360 x 360
 cells on (-0.12, 0.12)^2). At the first ``--steps`` load steps where damage moves, the
 lowest ``--modes`` curvatures of the reduced energy on the unrestricted grid are computed
-(:func:`thinfilm.stability.lowest_modes`) and each mode is named by its angular harmonic
+(:func:`thinfilm.plate.stability.lowest_modes`) and each mode is named by its angular harmonic
 about the centre: the ``m`` of the largest ``|sum_n v_n e^{i m theta_n}| / sum_n |v_n|``,
 ``m = 0..6``. ``m = 2`` is a mode that elongates the damage one way (a straight crack),
 ``m = 3`` one that grows it three ways (a three-armed star), ``m = 4`` a cross.
@@ -38,7 +38,7 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from bench_imperfect_branching import CASES, FINE, scene_text  # noqa: E402
 from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
-from thinfilm.stability import lowest_modes  # noqa: E402
+from thinfilm.plate.stability import lowest_modes  # noqa: E402
 
 HARMONICS = 7
 

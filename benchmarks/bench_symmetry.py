@@ -59,8 +59,8 @@ def case(nodes, symmetry, out):
     """One subprocess: set up, solve three times, save u; returns the row (without ratios)."""
     from thinfilm.run import build_grid, make_model
     from thinfilm.scene import parse_scene
-    from thinfilm.sequencing import CoarseDamage
-    from thinfilm.symmetry import GridSymmetry
+    from thinfilm.plate.sequencing import CoarseDamage
+    from thinfilm.plate.symmetry import GridSymmetry
 
     scene = parse_scene(scene_text(nodes, symmetry))
     grid = build_grid(scene.domain)

@@ -33,10 +33,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
-from thinfilm.evolution import StepRecord  # noqa: E402
+from thinfilm.engine.evolution import StepRecord  # noqa: E402
 from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
-from thinfilm.sequencing import CoarseDamage  # noqa: E402
+from thinfilm.plate.sequencing import CoarseDamage  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "results"
 COARSE = ROOT / "cases" / "indentation" / "results.h5"

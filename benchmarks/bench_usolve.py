@@ -2,8 +2,8 @@
 
 For each grid of m x m nodes and each case, a fresh subprocess (so that ``ru_maxrss`` is the
 peak of that case alone, C allocations included) builds the plate + Winkler test matrix of
-:func:`thinfilm.linsolve.plate_test_matrix` (nu = 0.3, winkler = 4e6 i.e. lam = 31.6,
-k_res = 1e-6) with the crack field of :func:`thinfilm.linsolve.crack_bands` (a through crack,
+:func:`thinfilm.solvers.linear.plate_test_matrix` (nu = 0.3, winkler = 4e6 i.e. lam = 31.6,
+k_res = 1e-6) with the crack field of :func:`thinfilm.solvers.linear.crack_bands` (a through crack,
 a T-junction, a ring and a partial crack, alpha = 1 across them), loads it by pure bending
 ``w = -x^2/2`` and measures
 
@@ -74,7 +74,7 @@ def worker(m, case):
     import numpy as np
     import scipy.sparse.linalg as spla
 
-    from thinfilm.linsolve import (crack_bands, grid_coords, make_solver, plate_test_matrix,
+    from thinfilm.solvers.linear import (crack_bands, grid_coords, make_solver, plate_test_matrix,
                                    LinearSolverError)
 
     winkler = 4e6
@@ -139,7 +139,7 @@ def run_case(m, case, timeout):
     if (case, m) in SKIP:
         return dict(m=m, unknowns=m * m, case=case, status="skipped", note=SKIP[(case, m)])
     if case == "pardiso":
-        from thinfilm.linsolve import pardiso_available
+        from thinfilm.solvers.linear import pardiso_available
 
         if not pardiso_available():
             return dict(m=m, unknowns=m * m, case=case, status="skipped",

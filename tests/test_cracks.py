@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from thinfilm.cracks import branch_points, branch_spacing
-from thinfilm.model import crack_profile
+from thinfilm.plate.cracks import branch_points, branch_spacing
+from thinfilm.plate.model import crack_profile
 
 # A grid of 0.5e-3 on (-0.06, 0.06)^2 and drawn AT1 cracks (eta = 2e-3) with a broken core
 # 4 cells wide, as the evolutions at eta = 10 dx give.

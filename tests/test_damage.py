@@ -1,4 +1,4 @@
-"""Tests of the bound-constrained damage solver :mod:`thinfilm.damage`.
+"""Tests of the bound-constrained damage solver :mod:`thinfilm.solvers.boxqp`.
 
 The AT1 and AT2 damage problems are built here from the energy of MODEL.md, at fixed
 elastic density ``W`` (the alpha-step of alternate minimization), per unit area on a
@@ -23,9 +23,9 @@ import scipy.optimize
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from thinfilm import damage
-from thinfilm.kernels import damage as damage_kernels
-from thinfilm.damage import (
+from thinfilm.solvers import boxqp as damage
+from thinfilm.solvers import kernels as damage_kernels
+from thinfilm.solvers.boxqp import (
     BoxQPResult,
     DamageSolverError,
     box_qp_energy,

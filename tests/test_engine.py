@@ -6,11 +6,11 @@ import scipy.sparse.linalg as sla
 
 from onedim.evolution import evolve
 from onedim.partition import partition_energy
-from thinfilm.evolution import AltMinOptions, BacktrackOptions, Engine, EvolutionError, SearchOptions
-from thinfilm.grid import Grid
-from thinfilm.linsolve import LinearSolverError
-from thinfilm.model import PlateModel
-from thinfilm.cracks import crack_positions
+from thinfilm.engine.evolution import AltMinOptions, BacktrackOptions, Engine, EvolutionError, SearchOptions
+from thinfilm.plate.grid import Grid
+from thinfilm.solvers.linear import LinearSolverError
+from thinfilm.plate.model import PlateModel
+from thinfilm.plate.cracks import crack_positions
 
 
 class SuperLU:

@@ -7,12 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from thinfilm.cracks import arms
-from thinfilm.evolution import AltMinOptions, Engine, StepRecord
+from thinfilm.plate.cracks import arms
+from thinfilm.engine.evolution import AltMinOptions, Engine, StepRecord
 from thinfilm.results import PlateResults
 from thinfilm.run import build_grid, make_model, run_plate
 from thinfilm.scene import load_scene, parse_scene
-from thinfilm.loads import contact_radius
+from thinfilm.plate.loads import contact_radius
 
 CASES = Path(__file__).resolve().parent.parent / "cases"
 

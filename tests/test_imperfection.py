@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from thinfilm.cli import main
-from thinfilm.energy import nodal_energy, surface_energy, total_energy
-from thinfilm.grid import Grid
-from thinfilm.imperfection import gaussian_field, toughness_factor
-from thinfilm.operators import DamageOperator, PlateOperator
-from thinfilm.symmetry import GridSymmetry
+from thinfilm.plate.energy import nodal_energy, surface_energy, total_energy
+from thinfilm.plate.grid import Grid
+from thinfilm.plate.imperfection import gaussian_field, toughness_factor
+from thinfilm.plate.operators import DamageOperator, PlateOperator
+from thinfilm.plate.symmetry import GridSymmetry
 
 
 def _correlation(xi, lag):
@@ -85,7 +85,7 @@ def test_alpha_problem_matches_the_energy_of_a_varying_toughness(at):
     plate = PlateOperator(grid, 0.3, 500.0, 1e-6)
     damage = DamageOperator(grid, 0.06, 0.8, at, toughness_factor=factor)
     u, w = rng.standard_normal(grid.n_nodes), rng.standard_normal(grid.n_nodes)
-    from thinfilm.energy import damage_problem, damage_problem_constant
+    from thinfilm.plate.energy import damage_problem, damage_problem_constant
 
     A, b = damage_problem(plate, damage, u)
     const = damage_problem_constant(plate, u, w)
@@ -201,8 +201,8 @@ def test_bad_noise_keys_are_one_line_exit_2(tmp_path, capsys, line, message):
 def test_arms_of_a_drawn_star_about_an_offset_centre():
     # Three straight cracks (a broken core 4 dx wide and AT1 profiles, eta = 2 dx) leaving (0.01, -0.005) at 10, 130
     # and 250 degrees, and a circle of radius 0.03 about that point.
-    from thinfilm.cracks import arms
-    from thinfilm.model import crack_profile
+    from thinfilm.plate.cracks import arms
+    from thinfilm.plate.model import crack_profile
 
     x = y = np.linspace(-0.1, 0.1, 201)
     X, Y = np.meshgrid(x, y)
@@ -230,10 +230,10 @@ def test_weak_zone_cracks_first_where_and_when_the_exact_energy_says():
     # cracks where the energy density is largest relative to the toughness). With the toughness
     # factor in only one of the two AT terms, or in neither, the load would be off by 5% or more.
     from onedim.fragment import scaling_F
-    from thinfilm.cracks import crack_positions
-    from thinfilm.evolution import AltMinOptions, Engine, SearchOptions
-    from thinfilm.linsolve import make_solver
-    from thinfilm.model import PlateModel
+    from thinfilm.plate.cracks import crack_positions
+    from thinfilm.engine.evolution import AltMinOptions, Engine, SearchOptions
+    from thinfilm.solvers.linear import make_solver
+    from thinfilm.plate.model import PlateModel
 
     lam, toughness, half = 10.0, 0.05, 0.25
     grid = Grid(-half, half, 800)

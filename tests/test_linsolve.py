@@ -1,11 +1,11 @@
-"""Tests of the u-problem linear solvers (thinfilm.linsolve) on plate-like test systems."""
+"""Tests of the u-problem linear solvers (thinfilm.solvers.linear) on plate-like test systems."""
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from thinfilm.linsolve import (
+from thinfilm.solvers.linear import (
     ROUNDOFF_BACKWARD_ERROR,
     AMGSolver,
     DirectSolver,
@@ -327,8 +327,8 @@ def test_biharmonic_film_beyond_the_residual_floor_is_solved_to_round_off():
     # The relative residual of an exact-to-round-off solution of the 1D film grows like n^4:
     # about 5e-4 at 6400 cells, far above the engine's u-solve tolerances. The direct solver
     # must return that solution, not fail on it; two independent factorizations agree.
-    from thinfilm.grid import Grid
-    from thinfilm.operators import PlateOperator
+    from thinfilm.plate.grid import Grid
+    from thinfilm.plate.operators import PlateOperator
 
     grid = Grid.line(-0.25, 0.25, 6400)
     plate = PlateOperator(grid, nu=0.0, winkler=4e4, k_res=1e-6)
@@ -351,11 +351,11 @@ def test_a_solution_above_the_round_off_floor_still_raises(cracked):
 
 @pytest.mark.parametrize("kind", ["direct", "amg"])
 def test_solvers_on_the_real_plate_operator(kind):
-    # The model's own matrix (thinfilm.operators), cracked by a band across the plate.
+    # The model's own matrix (thinfilm.plate.operators), cracked by a band across the plate.
     import scipy.sparse.linalg as spla_
 
-    from thinfilm.grid import Grid
-    from thinfilm.operators import PlateOperator
+    from thinfilm.plate.grid import Grid
+    from thinfilm.plate.operators import PlateOperator
 
     grid = Grid.rectangle(-0.5, 0.5, 60, -0.3, 0.3, 36)
     plate = PlateOperator(grid, 0.3, 4e4, 1e-6, clamped=("x0",))

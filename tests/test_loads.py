@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from thinfilm.cli import main
-from thinfilm.grid import Grid
-from thinfilm.loads import cantilever, field, indenter, indenter_displacement
+from thinfilm.plate.grid import Grid
+from thinfilm.plate.loads import cantilever, field, indenter, indenter_displacement
 from thinfilm.run import resolution_warnings
 from thinfilm.scene import SceneError, parse_scene
-from thinfilm.units import Material, toughness_from_KIC
+from thinfilm.plate.units import Material, toughness_from_KIC
 
 
 def test_indenter_is_the_sphere_under_contact_and_flat_outside():

@@ -9,8 +9,8 @@ import pytest
 
 from onedim.evolution import evolve
 from thinfilm.cli import main
-from thinfilm.cracks import centre_line, crack_positions
-from thinfilm.evolution import AltMinOptions, Engine, StepRecord
+from thinfilm.plate.cracks import centre_line, crack_positions
+from thinfilm.engine.evolution import AltMinOptions, Engine, StepRecord
 from thinfilm.run import build_grid, make_model, resolution_warnings
 from thinfilm.scene import load_scene, parse_scene
 

@@ -30,12 +30,12 @@ import scipy.linalg as sla
 import scipy.sparse.linalg as spla
 
 from onedim.fragment import fragment_displacement, fragment_energy
-from thinfilm.grid import Grid
-from thinfilm.linsolve import make_solver
-from thinfilm.model import crack_profile
-from thinfilm.operators import DamageOperator, PlateOperator
-from thinfilm import energy
-from thinfilm.kernels import reference
+from thinfilm.plate.grid import Grid
+from thinfilm.solvers.linear import make_solver
+from thinfilm.plate.model import crack_profile
+from thinfilm.plate.operators import DamageOperator, PlateOperator
+from thinfilm.plate import energy
+from thinfilm.plate.kernels import reference
 
 HALF_X, HALF_Y = 0.5, 0.3
 DEGREE = 12

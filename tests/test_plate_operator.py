@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
-from thinfilm import energy
-from thinfilm.grid import Grid
-from thinfilm.kernels import plate as kernels
-from thinfilm.kernels import reference
-from thinfilm.operators import DamageOperator, PlateOperator
+from thinfilm.plate import energy
+from thinfilm.plate.grid import Grid
+from thinfilm.plate.kernels import stencil as kernels
+from thinfilm.plate.kernels import reference
+from thinfilm.plate.operators import DamageOperator, PlateOperator
 
 GRID_2D = Grid.rectangle(-0.5, 0.5, 9, -0.3, 0.3, 7)  # hx != hy, a few interior rows
 GRID_1D = Grid.line(-0.5, 0.5, 11)

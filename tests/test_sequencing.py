@@ -5,10 +5,10 @@ import h5py
 import numpy as np
 import pytest
 
-from thinfilm.grid import Grid
+from thinfilm.plate.grid import Grid
 from thinfilm.run import run_plate
 from thinfilm.scene import SceneError, load_scene, parse_scene
-from thinfilm.sequencing import CoarseDamage
+from thinfilm.plate.sequencing import CoarseDamage
 
 
 def _write_results(path, grid, t_values, alphas):

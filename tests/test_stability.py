@@ -5,13 +5,13 @@ import h5py
 import numpy as np
 import pytest
 
-from thinfilm import stability
+from thinfilm.plate import stability
 from thinfilm.cli import main
-from thinfilm.energy import total_energy
-from thinfilm.grid import Grid
-from thinfilm.linsolve import make_solver
-from thinfilm.model import crack_profile
-from thinfilm.operators import DamageOperator, PlateOperator
+from thinfilm.plate.energy import total_energy
+from thinfilm.plate.grid import Grid
+from thinfilm.solvers.linear import make_solver
+from thinfilm.plate.model import crack_profile
+from thinfilm.plate.operators import DamageOperator, PlateOperator
 
 # The small indenter of Fig. 2.14 (R = 0.1, winkler = 6.4e7, G/a = 1.5) at t = 0.06, on a
 # coarse grid, with a damage spot a little off the centre (no symmetry to hide errors).

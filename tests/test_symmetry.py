@@ -1,4 +1,4 @@
-"""Mirror symmetries of the grid (thinfilm.symmetry) and the plate model restricted to
+"""Mirror symmetries of the grid (thinfilm.plate.symmetry) and the plate model restricted to
 symmetric fields: the orbits, the Galerkin reduction ``P^T K P`` against an explicit ``P``,
 the reduced u-solve against the full one, a whole ring step against the unreduced model,
 and the scene checks that refuse a symmetry the scene does not have."""
@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from thinfilm.evolution import AltMinOptions, Engine, StepRecord
-from thinfilm.grid import Grid
+from thinfilm.engine.evolution import AltMinOptions, Engine, StepRecord
+from thinfilm.plate.grid import Grid
 from thinfilm.run import build_grid, make_engine, make_model
 from thinfilm.scene import SceneError, parse_scene
-from thinfilm.symmetry import GridSymmetry
+from thinfilm.plate.symmetry import GridSymmetry
 
 CASES = Path(__file__).resolve().parent.parent / "cases"
 

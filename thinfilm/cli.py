@@ -50,7 +50,7 @@ def _run(args):
 
     # Imported here so that argument and scene errors are reported without loading the
     # numerical stack.
-    from thinfilm.exact import run_exact1d
+    from thinfilm.exact1d.evolution import run_exact1d
     from thinfilm.io import write_exact1d
     from thinfilm.plots import plot_exact1d
 
@@ -68,7 +68,7 @@ def _run(args):
 
 
 def _run_plate(scene, outdir, args, resume=False):
-    from thinfilm.evolution import EvolutionError
+    from thinfilm.engine.evolution import EvolutionError
     from thinfilm.io import ResumeError
     from thinfilm.run import RunInterrupted, run_plate
 
@@ -102,7 +102,7 @@ def _compare(args):
         status = _run_plate(scene, outdir, args)
         if status:
             return status
-    from thinfilm.compare import compare
+    from thinfilm.plate.compare import compare
 
     figure, report = compare(results, outdir)
     if not args.quiet:

@@ -88,7 +88,7 @@ def write_exact1d(outdir, scene, tracks):
         Output directory (created if missing).
     scene : thinfilm.scene.Exact1DScene
     tracks : dict
-        ``{"refined": Track, "grid": Track}`` from :func:`thinfilm.exact.run_exact1d`.
+        ``{"refined": Track, "grid": Track}`` from :func:`thinfilm.exact1d.evolution.run_exact1d`.
 
     Returns
     -------
@@ -186,7 +186,7 @@ def finished_steps(f):
     return min(lengths) if lengths else 0
 
 
-#: Per-step scalar records of a plate run, in /steps (names of thinfilm.evolution.StepRecord).
+#: Per-step scalar records of a plate run, in /steps (names of thinfilm.engine.evolution.StepRecord).
 STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_solves_skipped",
                "backtracks", "trials", "trials_accepted", "time_u", "time_alpha", "time_total",
                "lowest_curvature", "saddles_left")
@@ -218,7 +218,7 @@ class PlateResultsWriter:
         /fields/toughness  (n_nodes,) G/a at the nodes, for an imperfect film only
                            (parameters toughness_noise, toughness_noise_length, toughness_noise_seed)
 
-    Nodal fields follow :mod:`thinfilm.grid`'s flattening (``reshape(ny+1, nx+1)`` in 2D).
+    Nodal fields follow :mod:`thinfilm.plate.grid`'s flattening (``reshape(ny+1, nx+1)`` in 2D).
     A backtrack to step k truncates every dataset to k steps before step k is rewritten, so
     the file always holds the current evolution up to its last finished step.
 
@@ -226,7 +226,7 @@ class PlateResultsWriter:
     ----------
     path : Path
     scene : thinfilm.scene.PlateScene
-    grid : thinfilm.grid.Grid
+    grid : thinfilm.plate.grid.Grid
     resume : bool
         Continue an existing file written by the same scene text.
     toughness : ndarray, shape (n_nodes,), optional
@@ -345,10 +345,10 @@ class PlateResultsWriter:
 
         Returns
         -------
-        list of thinfilm.evolution.State
+        list of thinfilm.engine.evolution.State
             One per finished step; the last one carries ``u``.
         """
-        from thinfilm.evolution import State
+        from thinfilm.engine.evolution import State
 
         f = self.file
         n = finished_steps(f)

@@ -18,7 +18,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from thinfilm.cracks import crack_positions
+from thinfilm.plate.cracks import crack_positions
 from thinfilm.io import FORMAT, FORMAT_VERSION, finished_steps
 
 #: Kinds of results files that the inspection commands know.
@@ -223,7 +223,7 @@ class PlateResults:
         -------
         list of ndarray
             Sorted positions (units of L) of the local maxima of alpha above 0.9
-            (:func:`thinfilm.cracks.crack_positions`), one array per step.
+            (:func:`thinfilm.plate.cracks.crack_positions`), one array per step.
         """
         return [crack_positions(self.x, row) for row in self.centre_rows("alpha")]
 

@@ -1,7 +1,7 @@
 """Run a plate scene: grid, model, engine, results written step by step.
 
-The data flow of DESIGN.md: scene -> :class:`thinfilm.model.PlateModel` -> evolution engine
-(:class:`thinfilm.evolution.Engine`) -> step records and fields, each appended to
+The data flow of DESIGN.md: scene -> :class:`thinfilm.plate.model.PlateModel` -> evolution engine
+(:class:`thinfilm.engine.evolution.Engine`) -> step records and fields, each appended to
 ``results.h5`` and flushed as soon as the step is done -> ``summary.json`` and figures,
 made from the file.
 """
@@ -16,17 +16,17 @@ from pathlib import Path
 
 import numpy as np
 
-from thinfilm import loads
-from thinfilm.evolution import AltMinOptions, BacktrackOptions, Engine, SearchOptions, StabilityOptions
-from thinfilm.grid import Grid
-from thinfilm.imperfection import toughness_factor
+from thinfilm.plate import loads
+from thinfilm.engine.evolution import AltMinOptions, BacktrackOptions, Engine, SearchOptions, StabilityOptions
+from thinfilm.plate.grid import Grid
+from thinfilm.plate.imperfection import toughness_factor
 from thinfilm.io import PlateResultsWriter, write_plate_summary
-from thinfilm.linsolve import make_solver
-from thinfilm.model import PlateModel
+from thinfilm.solvers.linear import make_solver
+from thinfilm.plate.model import PlateModel
 from thinfilm.results import PlateResults
 from thinfilm.scene import SceneError
-from thinfilm.sequencing import CoarseDamage
-from thinfilm.symmetry import GridSymmetry
+from thinfilm.plate.sequencing import CoarseDamage
+from thinfilm.plate.symmetry import GridSymmetry
 
 log = logging.getLogger("thinfilm")
 
@@ -39,7 +39,7 @@ def build_grid(domain):
 
 
 def make_load(scene, grid):
-    """The scene's substrate displacement (:mod:`thinfilm.loads`)."""
+    """The scene's substrate displacement (:mod:`thinfilm.plate.loads`)."""
     load = scene.load
     if load.kind == "bending":
         return loads.bending(grid)
@@ -228,7 +228,7 @@ def run_plate(scene, outdir, progress=lambda n: None, resume=False):
     is killed leaves a valid file, and ``resume=True`` continues it from its last finished
     step to the same results as an uninterrupted run. Ctrl-C finishes and saves the current
     step, closes the file and raises :class:`RunInterrupted` (a second Ctrl-C stops at
-    once); a solver failure (:class:`thinfilm.evolution.EvolutionError`) propagates with
+    once); a solver failure (:class:`thinfilm.engine.evolution.EvolutionError`) propagates with
     the finished steps saved.
 
     Parameters

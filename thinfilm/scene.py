@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 
 from onedim.fragment import lam_from_winkler, winkler_from_lam
-from thinfilm.symmetry import GROUPS, GROUPS_2D, GROUPS_SQUARE
-from thinfilm.units import Material, toughness_from_KIC
+from thinfilm.plate.symmetry import GROUPS, GROUPS_2D, GROUPS_SQUARE
+from thinfilm.plate.units import Material, toughness_from_KIC
 
 MODEL_KINDS = ("exact1d", "plate")
 
@@ -275,7 +275,7 @@ class PlateParameters:
         Residual stiffness of ``g(alpha) = (1 - alpha)^2 + k_res``.
     toughness_noise : float
         Relative scatter ``s`` of a log-normal toughness field ``G exp(s xi)``
-        (:mod:`thinfilm.imperfection`); 0 for a uniform film.
+        (:mod:`thinfilm.plate.imperfection`); 0 for a uniform film.
     toughness_noise_length : float
         Correlation length of ``xi`` (units of L).
     toughness_noise_seed : int
@@ -302,7 +302,7 @@ class PlateParameters:
 class Domain:
     """The film: ``x`` (and ``y`` in 2D) intervals and the number of cells along each.
 
-    ``symmetry`` names a mirror group (:data:`thinfilm.symmetry.GROUPS`) under which the
+    ``symmetry`` names a mirror group (:data:`thinfilm.plate.symmetry.GROUPS`) under which the
     solution is sought among invariant fields, or ``"none"``.
     """
 
@@ -322,7 +322,7 @@ class Domain:
 
 @dataclass(frozen=True)
 class PlateLoad:
-    """The substrate displacement (:mod:`thinfilm.loads`), t in ``[0, t_max]`` in ``steps`` steps.
+    """The substrate displacement (:mod:`thinfilm.plate.loads`), t in ``[0, t_max]`` in ``steps`` steps.
 
     Attributes
     ----------
@@ -352,7 +352,7 @@ class PlateLoad:
 
 @dataclass(frozen=True)
 class SolverOptions:
-    """Numerical choices of a plate run (see :mod:`thinfilm.evolution`)."""
+    """Numerical choices of a plate run (see :mod:`thinfilm.engine.evolution`)."""
 
     linear: str = "auto"
     tol: float = 1e-4
@@ -366,11 +366,11 @@ class SolverOptions:
     backtrack_scope: int = 0
     search: bool = False
     search_delta: float = 0.0
-    #: The second-order stability check after each step (:class:`thinfilm.evolution.StabilityOptions`).
+    #: The second-order stability check after each step (:class:`thinfilm.engine.evolution.StabilityOptions`).
     stability: bool = False
     stability_tol: float = 1e-3
     #: ``results.h5`` of a coarser run of the same model whose damage starts each step
-    #: (grid sequencing, :mod:`thinfilm.sequencing`); None: start from the previous step.
+    #: (grid sequencing, :mod:`thinfilm.plate.sequencing`); None: start from the previous step.
     coarse: str | None = None
 
 

@@ -16,7 +16,7 @@ XDMF lists dimensions, origin and spacing slowest first (z, y, x), and so does V
 reader (``vtkXdmf3DataSet::CopyShape`` fills VTK's axes 2, 1, 0 from entries 0, 1, 2). A
 ``2DCoRectMesh`` would therefore come out in ParaView as a plane of constant x, with the
 film's x along VTK's y; the one-layer 3D mesh puts the film in the x-y plane with x along x.
-Nodes run x fastest, which is the flattening of :mod:`thinfilm.grid`, so each field row is
+Nodes run x fastest, which is the flattening of :mod:`thinfilm.plate.grid`, so each field row is
 used as stored.
 
 Open ``results.xdmf`` in ParaView with the **"XDMF Reader"** (VTK's ``vtkXdmfReader``); the
@@ -75,7 +75,7 @@ def mesh_description(res):
     x = res.x
     nx = len(x) - 1
     g = res.grid_attrs
-    # hx from the end points, as thinfilm.grid builds the nodes, not from a difference of
+    # hx from the end points, as thinfilm.plate.grid builds the nodes, not from a difference of
     # two rounded coordinates.
     hx = (float(g["x1"]) - float(g["x0"])) / nx if "x1" in g and "x0" in g else float(x[1] - x[0])
     if res.dim == 1:

@@ -2,7 +2,7 @@
 
 A :class:`Grid` is geometry only: node coordinates, spacing, the flattening convention of
 nodal fields and the node quadrature weights. Boundary conditions (which edges are clamped)
-belong to the operators (:mod:`thinfilm.operators`), not to the grid.
+belong to the operators (:mod:`thinfilm.plate.operators`), not to the grid.
 
 Flattening convention
 ---------------------

@@ -1,7 +1,7 @@
 """The finite-difference thin-film model as seen by the evolution engine.
 
 :class:`PlateModel` binds a grid, the plate + Winkler operator, the damage operator, a load
-``t -> w_t`` and a linear solver into the :class:`thinfilm.evolution.FractureModel`
+``t -> w_t`` and a linear solver into the :class:`thinfilm.engine.evolution.FractureModel`
 interface: ``solve_u``, ``damage_problem``, ``energies``, ``trial_states`` (the trial
 cracks of the nucleation search) and ``stability_modes`` (the stability check).
 """
@@ -13,10 +13,10 @@ from typing import Callable
 import numpy as np
 from scipy import ndimage
 
-from thinfilm.grid import Grid
-from thinfilm.linsolve import DirectSolver, make_solver
-from thinfilm.operators import DamageOperator, PlateOperator
-from thinfilm.stability import lowest_modes
+from thinfilm.plate.grid import Grid
+from thinfilm.solvers.linear import DirectSolver, make_solver
+from thinfilm.plate.operators import DamageOperator, PlateOperator
+from thinfilm.plate.stability import lowest_modes
 
 
 def crack_profile(distance, eta, at):
@@ -59,7 +59,7 @@ class PlateModel:
         True if ``load(t) = t load(1)``.
     linear_solver : object
         With ``update(K)`` and ``solve(f, x0=None, rtol=None) -> (u, info)``
-        (:mod:`thinfilm.linsolve`).
+        (:mod:`thinfilm.solvers.linear`).
     clamped : tuple of str, optional
         Clamped edges.
     trial_radius : float, optional
@@ -68,13 +68,13 @@ class PlateModel:
         Nodes with ``alpha`` below this are "sound" for the nucleation search.
     symmetry : GridSymmetry, optional
         Look for u and alpha among fields invariant under this mirror group
-        (:mod:`thinfilm.symmetry`): the u-problem is solved for one unknown per orbit of
+        (:mod:`thinfilm.plate.symmetry`): the u-problem is solved for one unknown per orbit of
         nodes (``linear_solver`` is then made for the reduced matrix,
         :meth:`reduced_matrix`), the damage is averaged over each orbit after every
         alpha-solve (:meth:`project_alpha`) and every trial crack is inserted with all its
         mirror images. Fields stay full-size everywhere else.
     toughness_factor : ndarray, shape (n_nodes,), optional
-        A film of varying toughness ``toughness * factor`` (:mod:`thinfilm.imperfection`);
+        A film of varying toughness ``toughness * factor`` (:mod:`thinfilm.plate.imperfection`);
         with a symmetry it must be invariant under it.
     """
 
@@ -180,7 +180,7 @@ class PlateModel:
 
     def stability_modes(self, alpha, t, lower, k=4):
         """The lowest curvatures of the reduced energy at ``alpha`` on its free nodes
-        (:func:`thinfilm.stability.lowest_modes`, which solves for the minimizing u at
+        (:func:`thinfilm.plate.stability.lowest_modes`, which solves for the minimizing u at
         ``alpha`` itself: a converged state's u belongs to the damage before its last
         alpha-solve).
 

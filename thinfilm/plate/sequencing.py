@@ -35,7 +35,7 @@ class CoarseDamage:
     ----------
     path : str or Path
         ``results.h5`` of a plate run (its finished steps are used).
-    grid : thinfilm.grid.Grid
+    grid : thinfilm.plate.grid.Grid
         The fine grid (1D or 2D, the same dimension as the coarse run's).
 
     Notes

@@ -1,7 +1,7 @@
-"""Plain NumPy references of the kernels in :mod:`thinfilm.kernels.plate`, for tests.
+"""Plain NumPy references of the kernels in :mod:`thinfilm.plate.kernels.stencil`, for tests.
 
 Written independently of the kernels, in operator form: the discrete energy of
-:mod:`thinfilm.operators` is assembled from 1D difference matrices combined by Kronecker
+:mod:`thinfilm.plate.operators` is assembled from 1D difference matrices combined by Kronecker
 products (``scipy.sparse`` only as a container for matrix products), and the Hessian is
 ``sum D^T diag(coefficients) D``. Slow and memory-hungry: small grids only.
 

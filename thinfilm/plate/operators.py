@@ -6,7 +6,7 @@ and the boundary conditions of free edges are natural.
 
 Discrete energy (non-dimensional, MODEL.md)
 ===========================================
-On a :class:`~thinfilm.grid.Grid` with spacings ``hx``, ``hy``, trapezoidal node weights
+On a :class:`~thinfilm.plate.grid.Grid` with spacings ``hx``, ``hy``, trapezoidal node weights
 ``omega_n = omega_x_i omega_y_j`` (``h`` inside, ``h/2`` on the boundary) and nodal degradation
 ``g_n = (1 - alpha_n)^2 + k_res``::
 
@@ -59,13 +59,13 @@ forward differences on grid edges, edge weights ``hx omega_y_j`` (x-edges) and
                                 + eta sum_{x-edges} omega_y_j / hx (alpha_{i+1,j} - alpha_{i,j})^2
                                 + eta sum_{y-edges} omega_x_i / hy (alpha_{i,j+1} - alpha_{i,j})^2 ]
 
-An imperfect film, of toughness ``toughness * f_n`` at node ``n`` (:mod:`thinfilm.imperfection`),
+An imperfect film, of toughness ``toughness * f_n`` at node ``n`` (:mod:`thinfilm.plate.imperfection`),
 weights node ``n``'s local term by ``f_n`` and an edge's gradient term by the mean of its two
 nodes' factors (``omega -> omega f``, ``L -> L_G`` below): a second-order quadrature of
 ``Int G(x) (...)`` for a smooth ``G``.
 
 The alpha-problem at fixed ``u`` is quadratic: with ``e_n`` the lumped undamaged bending
-energy (``P_bending = 1/2 sum_n g_n e_n``; see :func:`thinfilm.energy.bending_density`),
+energy (``P_bending = 1/2 sum_n g_n e_n``; see :func:`thinfilm.plate.energy.bending_density`),
 ``L`` the edge Laplacian (``alpha.L.alpha`` = the gradient sum) and ``cs = toughness/(4 c_m)``::
 
     E_h = 1/2 alpha.A.alpha - b.alpha + const,
@@ -73,7 +73,7 @@ energy (``P_bending = 1/2 sum_n g_n e_n``; see :func:`thinfilm.energy.bending_de
     b = e                      [- cs omega / eta for AT1]
     const = 1/2 (1 + k_res) sum_n e_n + foundation energy.
 
-All fields follow the flattening convention of :mod:`thinfilm.grid`. Lengths are in units
+All fields follow the flattening convention of :mod:`thinfilm.plate.grid`. Lengths are in units
 of the domain size L, energies in the non-dimensional units of MODEL.md.
 """
 
@@ -86,8 +86,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from thinfilm.grid import Grid
-from thinfilm.kernels import plate as kernels
+from thinfilm.plate.grid import Grid
+from thinfilm.plate.kernels import stencil as kernels
 
 __all__ = ["PlateOperator", "DamageOperator", "degradation", "c_m"]
 
@@ -163,7 +163,7 @@ class PlateOperator:
 
     def __init__(self, grid: Grid, nu: float, winkler: float, k_res: float, clamped: Iterable[str] = ()):
         if not isinstance(grid, Grid):
-            raise TypeError(f"grid = {grid!r} must be a thinfilm.grid.Grid")
+            raise TypeError(f"grid = {grid!r} must be a thinfilm.plate.grid.Grid")
         self.grid = grid
         self.nu = _finite_scalar("nu", nu, -1.0, 1.0, True, True)
         self.winkler = _finite_scalar("winkler", winkler, 0.0, math.inf, False, True)
@@ -249,7 +249,7 @@ class PlateOperator:
 
         ``K(alpha) = sum_n g(alpha_n) M_n + winkler diag(omega)`` is linear in the nodal
         degradation, so with ``g = g'(alpha) * dalpha`` this is the derivative of ``K(alpha) u``
-        along ``dalpha`` (:mod:`thinfilm.stability`).
+        along ``dalpha`` (:mod:`thinfilm.plate.stability`).
         """
         return self._apply_g(_nodal(self.grid, "g", g), u, 0.0, None)
 
@@ -305,17 +305,17 @@ class PlateOperator:
         u[self.clamped_nodes] = 0.0
         return u
 
-    # --- energies (see thinfilm.energy) ---------------------------------------------------
+    # --- energies (see thinfilm.plate.energy) ---------------------------------------------------
     def elastic_energy(self, u, alpha, w) -> float:
         """Elastic energy ``P_h(u, alpha, w)`` = bending + foundation; see
-        :func:`thinfilm.energy.elastic_energy`."""
-        from thinfilm import energy
+        :func:`thinfilm.plate.energy.elastic_energy`."""
+        from thinfilm.plate import energy
 
         return energy.elastic_energy(self, u, alpha, w)
 
     def bending_density(self, u) -> np.ndarray:
-        """Lumped undamaged bending energy ``e``; see :func:`thinfilm.energy.bending_density`."""
-        from thinfilm import energy
+        """Lumped undamaged bending energy ``e``; see :func:`thinfilm.plate.energy.bending_density`."""
+        from thinfilm.plate import energy
 
         return energy.bending_density(self, u)
 
@@ -334,7 +334,7 @@ class DamageOperator:
         1 (AT1, linear ``alpha/eta``) or 2 (AT2, ``alpha^2/eta``).
     toughness_factor : ndarray, shape (n_nodes,), optional
         A film of varying toughness ``G_n = toughness * factor_n`` (factors > 0, see
-        :mod:`thinfilm.imperfection`). The local term of node ``n`` takes ``factor_n``, the
+        :mod:`thinfilm.plate.imperfection`). The local term of node ``n`` takes ``factor_n``, the
         gradient term of an edge the mean of its two nodes' factors. None: uniform.
 
     Notes
@@ -345,7 +345,7 @@ class DamageOperator:
 
     def __init__(self, grid: Grid, eta: float, toughness: float, at: int = 1, toughness_factor=None):
         if not isinstance(grid, Grid):
-            raise TypeError(f"grid = {grid!r} must be a thinfilm.grid.Grid")
+            raise TypeError(f"grid = {grid!r} must be a thinfilm.plate.grid.Grid")
         self.grid = grid
         self.eta = _finite_scalar("eta", eta, 0.0, math.inf, True, True)
         self.toughness = _finite_scalar("toughness", toughness, 0.0, math.inf, True, True)
@@ -412,8 +412,8 @@ class DamageOperator:
                           + self.eta * alpha * (self._surface_laplacian @ alpha))
 
     def surface_energy(self, alpha) -> float:
-        """Surface energy ``S_h(alpha)``; see :func:`thinfilm.energy.surface_energy`."""
-        from thinfilm import energy
+        """Surface energy ``S_h(alpha)``; see :func:`thinfilm.plate.energy.surface_energy`."""
+        from thinfilm.plate import energy
 
         return energy.surface_energy(self, alpha)
 
@@ -423,7 +423,7 @@ class DamageOperator:
         Parameters
         ----------
         e : ndarray, shape (n_nodes,)
-            Lumped undamaged bending energy (:func:`thinfilm.energy.bending_density`), >= 0.
+            Lumped undamaged bending energy (:func:`thinfilm.plate.energy.bending_density`), >= 0.
 
         Returns
         -------

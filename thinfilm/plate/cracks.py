@@ -44,7 +44,7 @@ def centre_line(grid, field):
 
     Parameters
     ----------
-    grid : thinfilm.grid.Grid
+    grid : thinfilm.plate.grid.Grid
     field : ndarray, shape (n_nodes,)
 
     Returns

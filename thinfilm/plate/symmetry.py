@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from thinfilm.grid import Grid
+from thinfilm.plate.grid import Grid
 
 #: The groups a scene may name (``[domain] symmetry``) and the mirrors that generate them.
 GROUPS = {
@@ -159,7 +159,7 @@ class GridSymmetry:
         return float(np.max(values.max(axis=0) - values.min(axis=0), initial=0.0))
 
     def maps_edges(self, edges) -> bool:
-        """True if every mirror maps the set of ``edges`` (names of :data:`thinfilm.grid.EDGES_2D`) onto itself."""
+        """True if every mirror maps the set of ``edges`` (names of :data:`thinfilm.plate.grid.EDGES_2D`) onto itself."""
         edges = set(edges)
         return all({_EDGE_MAPS[m][e] for e in edges} == edges for m in self.mirrors)
 
@@ -181,7 +181,7 @@ class GridSymmetry:
         The reduced pattern, and where each stored entry of K lands in it, are computed for
         the first matrix and reused while the pattern stays the same, so that a reduction is
         one ``bincount`` over the entries. The plate operator returns one matrix object whose
-        values it rewrites in place (:meth:`thinfilm.operators.PlateOperator.matrix`): its
+        values it rewrites in place (:meth:`thinfilm.plate.operators.PlateOperator.matrix`): its
         pattern arrays are recognized by identity, without copying or comparing them.
         """
         K = sp.csr_matrix(K)

@@ -20,7 +20,7 @@ from typing import Callable
 
 import numpy as np
 
-from thinfilm.grid import Grid
+from thinfilm.plate.grid import Grid
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ import math
 import numpy as np
 from scipy import ndimage
 
-from thinfilm.grid import Grid
+from thinfilm.plate.grid import Grid
 
 __all__ = ["gaussian_field", "toughness_factor"]
 
@@ -44,14 +44,14 @@ def gaussian_field(grid: Grid, length: float, seed: int, symmetry=None) -> np.nd
         the grid spacing and below the domain size). 0: independent nodes.
     seed : int
         Seed of the generator.
-    symmetry : thinfilm.symmetry.GridSymmetry, optional
+    symmetry : thinfilm.plate.symmetry.GridSymmetry, optional
         If given, the field is averaged over the group's images before it is scaled, so it
         is invariant (the symmetric fields of a restricted run must see a symmetric film).
 
     Returns
     -------
     ndarray, shape (n_nodes,)
-        Flat nodal field (:mod:`thinfilm.grid` order); empirical mean 0, variance 1.
+        Flat nodal field (:mod:`thinfilm.plate.grid` order); empirical mean 0, variance 1.
     """
     if not (isinstance(length, (int, float)) and math.isfinite(length) and length >= 0):
         raise ValueError(f"length = {length!r} must be a finite number >= 0")

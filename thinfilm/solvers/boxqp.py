@@ -79,7 +79,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from thinfilm.kernels import damage as kernels
+from thinfilm.solvers import kernels as kernels
 
 __all__ = [
     "BoxQPResult",

@@ -1,8 +1,8 @@
 """Numba kernels of the discrete plate + Winkler energy and of the Ambrosio-Tortorelli terms.
 
 Arrays and scalars in, arrays or floats out; no set-up, no validation (see
-:mod:`thinfilm.operators`, which calls these with the right dtypes). The discrete energy
-they implement is defined in :mod:`thinfilm.operators`; in short, at node ``n`` with second
+:mod:`thinfilm.plate.operators`, which calls these with the right dtypes). The discrete energy
+they implement is defined in :mod:`thinfilm.plate.operators`; in short, at node ``n`` with second
 differences ``a = D_xx u`` and ``b = D_yy u`` (each may be missing on a free edge, or use a
 mirrored ghost node on a clamped edge) the bending density is
 ``Q_n(a, b) = qa a^2 + qb b^2 + 2 qab a b`` with ``(qa, qb, qab)`` from :func:`node_form`,

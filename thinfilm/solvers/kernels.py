@@ -1,4 +1,4 @@
-"""Numba kernels of the bound-constrained damage solver (:mod:`thinfilm.damage`).
+"""Numba kernels of the bound-constrained damage solver (:mod:`thinfilm.solvers.boxqp`).
 
 Arrays and scalars in; no allocation in the per-node loops. Each kernel that replaces a
 NumPy expression has its NumPy reference here too (``*_reference``); the tests compare them.
@@ -8,7 +8,7 @@ import numba
 import numpy as np
 import scipy.sparse as sp
 
-# Node status codes, shared with thinfilm.damage: free, on the lower bound, on the upper
+# Node status codes, shared with thinfilm.solvers.boxqp: free, on the lower bound, on the upper
 # bound, predicted to go to the lower bound, predicted to go to the upper bound.
 _FREE, _AT_LOWER, _AT_UPPER, _TO_LOWER, _TO_UPPER = 0, 1, 2, 3, 4
 
@@ -64,7 +64,7 @@ def _predict_nodes(nodes, a, r, lower, upper, dinv, status, z, dz, violation):
 
 def _predict_reference(a, r, lower, upper, dinv):
     """NumPy reference of :func:`_predict_all`: ``(status, z, dz, violation)``."""
-    from thinfilm.damage import kkt_violation  # the solver's definition (imports this module)
+    from thinfilm.solvers.boxqp import kkt_violation  # the solver's definition (imports this module)
 
     violation = kkt_violation(r, a, lower, upper) * dinv
     target = a - r * dinv

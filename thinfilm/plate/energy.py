@@ -1,7 +1,7 @@
 """Energies of the discrete thin-film model and the quadratic alpha-problem.
 
 The discrete energy ``E_h(u, alpha) = P_h(u, alpha, w) + S_h(alpha)`` is defined in
-:mod:`thinfilm.operators` (formulas at interior nodes, free and clamped edges, corners).
+:mod:`thinfilm.plate.operators` (formulas at interior nodes, free and clamped edges, corners).
 These functions evaluate it; they take the operator objects of that module, which hold the
 grid, the parameters and the boundary conditions.
 
@@ -16,11 +16,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 import scipy.sparse as sp
 
-from thinfilm.kernels import plate as kernels
-from thinfilm.operators import _nodal
+from thinfilm.plate.kernels import stencil as kernels
+from thinfilm.plate.operators import _nodal
 
 if TYPE_CHECKING:  # pragma: no cover
-    from thinfilm.operators import DamageOperator, PlateOperator
+    from thinfilm.plate.operators import DamageOperator, PlateOperator
 
 __all__ = [
     "elastic_energies",
@@ -82,7 +82,7 @@ def surface_energy(damage: "DamageOperator", alpha) -> float:
 
     ``toughness/(4 c_m) Int( alpha^m / eta + eta |grad alpha|^2 )``, ``m = at``, with the
     trapezoidal rule for the first term and forward differences on grid edges for the
-    second (see :mod:`thinfilm.operators`). For a film of varying toughness each node's
+    second (see :mod:`thinfilm.plate.operators`). For a film of varying toughness each node's
     local term takes its factor and each edge's gradient term the mean of its nodes'.
     """
     grid = damage.grid

@@ -1,12 +1,12 @@
 """The quasi-static evolution engine: alternate minimization, backtracking, nucleation search.
 
 The engine knows nothing of grids or meshes. It drives any model that offers the small
-interface :class:`FractureModel` (the finite-difference plate of :mod:`thinfilm.model` now,
+interface :class:`FractureModel` (the finite-difference plate of :mod:`thinfilm.plate.model` now,
 the finite-element module later):
 
 * at each load step ``t_i``, alternate minimization: ``u = argmin E(., alpha)`` (a linear
   solve), then ``alpha = argmin E(u, .)`` under ``alpha_{i-1} <= alpha <= 1`` (a
-  bound-constrained QP, :func:`thinfilm.damage.solve_box_qp`), until the largest change of
+  bound-constrained QP, :func:`thinfilm.solvers.boxqp.solve_box_qp`), until the largest change of
   alpha is below ``tol``. Each half-step minimizes the energy exactly, so the energy never
   increases. An over-relaxed damage update (:class:`AltMinOptions`) replaces the plain one
   only if, after the next u-solve, the energy is below that of the plain update; otherwise
@@ -39,8 +39,8 @@ from typing import Callable, Protocol, Sequence
 
 import numpy as np
 
-from thinfilm.damage import DamageSolverError, solve_box_qp
-from thinfilm.linsolve import LinearSolverError
+from thinfilm.solvers.boxqp import DamageSolverError, solve_box_qp
+from thinfilm.solvers.linear import LinearSolverError
 
 
 class EvolutionError(RuntimeError):
@@ -206,7 +206,7 @@ class SearchOptions:
 
 @dataclass
 class StabilityOptions:
-    """Leaving saddles: a second-order check of every converged state (:mod:`thinfilm.stability`).
+    """Leaving saddles: a second-order check of every converged state (:mod:`thinfilm.plate.stability`).
 
     After a load step converges, the lowest curvatures of the reduced energy on the free
     damage nodes are computed. If the lowest is below ``-tol`` (units of the model's
@@ -676,7 +676,7 @@ class Engine:
             ``u``.
         guess : callable, optional
             ``guess(t)``: a damage field (shape ``(n_alpha,)``) to start step ``t`` from, or
-            None (grid sequencing, :mod:`thinfilm.sequencing`). Alternate minimization then
+            None (grid sequencing, :mod:`thinfilm.plate.sequencing`). Alternate minimization then
             starts from ``max(alpha_{i-1}, guess(t))``; irreversibility stays against
             ``alpha_{i-1}``. Not used for a step restarted by a backtrack, which starts from
             the state that triggered it.

@@ -38,7 +38,7 @@ Every solve returns an :class:`SolveInfo`; a solve that does not reach its toler
 produces a non-finite value, raises :class:`LinearSolverError`.
 
 :func:`plate_test_matrix` and :func:`crack_bands` build a plate-like test system for tests and
-benchmarks only; the model's operator lives in :mod:`thinfilm.operators`.
+benchmarks only; the model's operator lives in :mod:`thinfilm.plate.operators`.
 """
 
 from __future__ import annotations
@@ -417,7 +417,7 @@ class _LinearSolver:
         """``update(K)`` then ``solve``.
 
         Always takes K's current values, also when K is the object passed before:
-        :meth:`thinfilm.operators.PlateOperator.matrix` rewrites one matrix in place, so
+        :meth:`thinfilm.plate.operators.PlateOperator.matrix` rewrites one matrix in place, so
         identity says nothing about the values. Call :meth:`solve` alone to reuse the last
         update.
         """
@@ -835,7 +835,7 @@ def make_solver(kind, pattern, *, coords=None, **options):
 
 
 # --------------------------------------------------------------------------------------------
-# test matrices (tests and benchmarks only; the model's operator is thinfilm.operators)
+# test matrices (tests and benchmarks only; the model's operator is thinfilm.plate.operators)
 # --------------------------------------------------------------------------------------------
 
 

@@ -13,7 +13,7 @@ At fixed damage the energy is minimized by ``u(alpha) = K(alpha)^{-1} f``; the r
 
     H = E_aa - E_au K^{-1} E_ua
 
-with, for the discrete energy of :mod:`thinfilm.operators` (``K(alpha) = sum_n g(alpha_n) M_n +
+with, for the discrete energy of :mod:`thinfilm.plate.operators` (``K(alpha) = sum_n g(alpha_n) M_n +
 winkler diag(omega)``, bending energy ``1/2 sum_n g(alpha_n) e_n(u)``):
 
 - ``E_aa = A``, the matrix of the alpha-problem: ``diag(1/2 g'' e) + 2 cs eta L`` (+ the AT2
@@ -55,8 +55,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from thinfilm.linsolve import make_solver
-from thinfilm.operators import DamageOperator, PlateOperator
+from thinfilm.solvers.linear import make_solver
+from thinfilm.plate.operators import DamageOperator, PlateOperator
 
 __all__ = ["Modes", "ReducedProblem", "free_nodes", "damage_hessian", "reduced_hessian", "reduced_problem",
            "lowest_modes"]
@@ -223,7 +223,7 @@ def lowest_modes(plate: PlateOperator, damage: DamageOperator, alpha, w, lower, 
     maxiter : int
         LOBPCG iterations at most (one block of ``k`` products each).
     solver : object, optional
-        A linear solver of :mod:`thinfilm.linsolve` for ``K`` (updated here); default a new
+        A linear solver of :mod:`thinfilm.solvers.linear` for ``K`` (updated here); default a new
         direct solver.
 
     Returns
