@@ -34,8 +34,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
 from thinfilm.plate.cracks import centre_line, crack_positions  # noqa: E402
-from thinfilm.engine.evolution import AltMinOptions, Engine, StepRecord  # noqa: E402
-from thinfilm.run import build_grid, make_model  # noqa: E402
+from thinfilm.engine import AltMinOptions, Engine, StepRecord  # noqa: E402
+from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "results"
@@ -53,8 +53,8 @@ def nucleation_step(scene, acceleration):
     """Alternate minimization at t = 6.5 from alpha = 0; returns one table row (dict)."""
     grid = build_grid(scene.domain)
     model = make_model(scene, grid)
-    engine = Engine(model, AltMinOptions(tol=scene.solver.tol, acceleration=acceleration,
-                                         omega=scene.solver.omega))
+    engine = Engine(model, AltMinOptions(tol=scene.solver.altmin.tol, acceleration=acceleration,
+                                         omega=scene.solver.altmin.omega))
     zero = np.zeros(model.n_alpha)
     record = StepRecord(65, T_NUCLEATION)
     tic, tic_cpu = time.perf_counter(), time.process_time()

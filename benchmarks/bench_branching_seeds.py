@@ -60,10 +60,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
 from thinfilm.plate.cracks import branch_points, branch_spacing  # noqa: E402
-from thinfilm.engine.evolution import EvolutionError  # noqa: E402
+from thinfilm.engine import EvolutionError  # noqa: E402
 from thinfilm.plate.loads import contact_radius  # noqa: E402
 from thinfilm.plate.model import crack_profile  # noqa: E402
-from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
+from thinfilm.engine import Engine  # noqa: E402
+from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 
 ETA = 0.0033333333333333335  # the dissertation's eta = 5 dx at 1500 nodes on (-0.5, 0.5)
@@ -157,7 +158,7 @@ def run_case(name, cells, max_iter, seed_names):
     model = make_model(scene, grid)  # one model (and solver analysis) for every seed
     rows, fields = [], {}
     for seed_name in seed_names:
-        engine = make_engine(scene, model)
+        engine = Engine.from_options(model, scene.solver)
         ring_radius = 0.9 * contact_radius(scene.load.radius, t) if seed_name in RINGED else None
         seed = seed_damage(grid, ETA, segments(seed_name, ETA, length), ring_radius)
         start = time.perf_counter()

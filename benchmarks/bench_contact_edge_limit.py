@@ -39,7 +39,7 @@ sys.path.insert(0, str(ROOT))  # run from a checkout
 from bench_branching_seeds import CASES, ETA, HALF_WIDTH, SCENE  # noqa: E402  (the same Fig. 2.14 scenes)
 from thinfilm.plate.loads import contact_radius  # noqa: E402
 from thinfilm.plate.operators import c_m  # noqa: E402
-from thinfilm.run import build_grid, make_model  # noqa: E402
+from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 
 ETAS = (ETA, 0.005)  # the _fine case files' 0.0033, the coarse case files' 0.005

@@ -171,7 +171,8 @@ def evolve_scene(scene, progress=False):
     With ``progress``, print one ``PROGRESS`` JSON line per computed step (what a killed run
     got through is read from them)."""
     from thinfilm.plate.cracks import centre_line, crack_positions
-    from thinfilm.run import build_grid, make_engine, make_model
+    from thinfilm.engine import Engine
+    from thinfilm.plate.kind import build_grid, make_model
 
     timings = {"time_u": 0.0, "time_alpha": 0.0, "steps_computed": 0, "last_step": 0}
 
@@ -190,7 +191,7 @@ def evolve_scene(scene, progress=False):
     start, start_cpu = time.perf_counter(), time.process_time()
     grid = build_grid(scene.domain)
     model = make_model(scene, grid)
-    engine = make_engine(scene, model)
+    engine = Engine.from_options(model, scene.solver)
     timings["engine"] = engine
     t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
     try:
@@ -206,7 +207,7 @@ def strength_limit(scene):
 
     Alternate minimization leaves the sound film elastic until then (the alpha-problem at
     alpha = 0 has ``b = e - (G/a)/(4 c_m eta) w <= 0``); ``e`` scales with t^2."""
-    from thinfilm.run import build_grid, make_model
+    from thinfilm.plate.kind import build_grid, make_model
 
     grid = build_grid(scene.domain)
     model = make_model(scene, grid)
@@ -225,7 +226,7 @@ def worker(spec):
 
     warnings.filterwarnings("ignore")
     from thinfilm.plate.cracks import centre_line, crack_positions
-    from thinfilm.run import crack_events
+    from thinfilm.plate.results import crack_events
 
     row = {"key": spec["key"], "status": "ok", "notes": []}
     # Warm-up: load every Numba kernel (and import everything) outside the timing.

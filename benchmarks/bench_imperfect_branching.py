@@ -65,7 +65,8 @@ sys.path.insert(0, str(ROOT))  # run from a checkout
 
 from thinfilm.plate.cracks import CRACK_THRESHOLD, arms, branch_points, branch_spacing  # noqa: E402
 from thinfilm.plate.loads import contact_radius  # noqa: E402
-from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
+from thinfilm.engine import Engine  # noqa: E402
+from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 
 CASES = {"G20": "indentation_branching_G20.toml", "G15": "indentation_branching_G15.toml",
@@ -145,7 +146,7 @@ def run(name, noise, seed, grid_lines, checked=False):
     scene = parse_scene(scene_text(name, noise, seed, grid_lines, checked), source=f"<{name}>")
     grid = build_grid(scene.domain)
     model = make_model(scene, grid)
-    engine = make_engine(scene, model)
+    engine = Engine.from_options(model, scene.solver)
     t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
     start = time.perf_counter()
     records, states = engine.run(t_values)

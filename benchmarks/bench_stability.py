@@ -38,7 +38,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from bench_imperfect_branching import FINE, scene_text  # noqa: E402
 from thinfilm.plate import stability  # noqa: E402
-from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
+from thinfilm.engine import Engine  # noqa: E402
+from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 
 CASE, LOADS, K = "G15", (0.06, 0.065), 4
@@ -58,7 +59,7 @@ def main():
     scene = parse_scene(scene_text(CASE, 0.0, 0, FINE), source=CASE)
     grid = build_grid(scene.domain)
     t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
-    _, states = make_engine(scene, make_model(scene, grid)).run(t_values)
+    _, states = Engine.from_options(make_model(scene, grid), scene.solver).run(t_values)
     free_scene = parse_scene(scene_text(CASE, 0.0, 0, FINE, restricted=False), source=CASE)
     model = make_model(free_scene, grid)
     unit = model.damage.toughness / model.eta

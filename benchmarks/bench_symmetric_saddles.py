@@ -36,7 +36,8 @@ sys.path.insert(0, str(ROOT))  # run from a checkout
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from bench_imperfect_branching import CASES, FINE, scene_text  # noqa: E402
-from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
+from thinfilm.engine import Engine  # noqa: E402
+from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 from thinfilm.plate.stability import lowest_modes  # noqa: E402
 
@@ -54,7 +55,7 @@ def harmonic(mode, theta):
 def study(name, n_steps, n_modes):
     symmetric = parse_scene(scene_text(name, 0.0, 0, FINE), source=f"<{name}>")
     grid = build_grid(symmetric.domain)
-    engine = make_engine(symmetric, make_model(symmetric, grid))
+    engine = Engine.from_options(make_model(symmetric, grid), symmetric.solver)
     t_values = np.linspace(0.0, symmetric.load.t_max, symmetric.load.steps + 1)
     _, states = engine.run(t_values)
     # The unrestricted operators of the same film, for the curvatures.

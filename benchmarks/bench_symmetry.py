@@ -57,7 +57,7 @@ def scene_text(nodes, symmetry):
 
 def case(nodes, symmetry, out):
     """One subprocess: set up, solve three times, save u; returns the row (without ratios)."""
-    from thinfilm.run import build_grid, make_model
+    from thinfilm.plate.kind import build_grid, make_model
     from thinfilm.scene import parse_scene
     from thinfilm.plate.sequencing import CoarseDamage
     from thinfilm.plate.symmetry import GridSymmetry

@@ -33,8 +33,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # run from a checkout
 
-from thinfilm.engine.evolution import StepRecord  # noqa: E402
-from thinfilm.run import build_grid, make_engine, make_model  # noqa: E402
+from thinfilm.engine import StepRecord  # noqa: E402
+from thinfilm.engine import Engine  # noqa: E402
+from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
 from thinfilm.scene import parse_scene  # noqa: E402
 from thinfilm.plate.sequencing import CoarseDamage  # noqa: E402
 
@@ -57,7 +58,7 @@ def ring_step(scene, omega_tail):
     """The sequenced ring step with the given ``omega_tail``; returns (row, alpha)."""
     grid = build_grid(scene.domain)
     model = make_model(scene, grid)
-    engine = make_engine(scene, model)
+    engine = Engine.from_options(model, scene.solver)
     engine.altmin = dataclasses.replace(engine.altmin, omega_tail=omega_tail)
     coarse = CoarseDamage(COARSE, grid)
     lower = coarse(T_BEFORE)

@@ -3,8 +3,9 @@
 Library code raises exceptions; only this module turns them into messages and exit codes.
 A bad scene is reported in one line on stderr with exit status 2, before anything is
 computed or written; so is an output directory that already holds results (unless
-``--resume`` or ``--force``). Ctrl-C stops a plate run after saving its finished steps (exit
-130); a solver failure keeps them too (exit 1).
+``--resume`` or ``--force``). Ctrl-C stops a run driven by the engine after saving its
+finished steps (exit 130); a solver failure keeps them too (exit 1). Scenes are run by their
+kind (:mod:`thinfilm.kinds`), found from ``[model] kind``.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from thinfilm import __version__
+from thinfilm import __version__, kinds
 from thinfilm.scene import SceneError, load_scene
 
 EXIT_BAD_INPUT = 2
@@ -30,52 +31,16 @@ def default_outdir(scene_path):
     return scene_path.with_suffix("") if scene_path.suffix else scene_path.with_name(scene_path.name + "_out")
 
 
-def _run(args):
-    scene = load_scene(args.scene)
-    outdir = Path(args.out) if args.out else default_outdir(args.scene)
-    if outdir.exists() and not outdir.is_dir():
-        raise SceneError(args.scene, None, f"output path {outdir} exists and is not a directory (use --out DIR)")
-    if args.resume and args.force:
-        raise SceneError(args.scene, None, "--resume and --force exclude each other")
-    if args.resume and scene.kind != "plate":
-        raise SceneError(args.scene, None, f'--resume: only plate runs can be resumed (this scene is "{scene.kind}")')
-    existing = [p.name for p in (outdir / "results.h5", outdir / "summary.json") if p.exists()]
-    if existing and not args.resume and not args.force:
-        raise SceneError(args.scene, None, f"output directory {outdir} already holds {', '.join(existing)};"
-                         " use --resume to continue the run or --force to overwrite it")
-
-    if scene.kind == "plate":
-        # --resume without results yet starts the run from its beginning.
-        return _run_plate(scene, outdir, args, resume=args.resume and (outdir / "results.h5").exists())
-
-    # Imported here so that argument and scene errors are reported without loading the
-    # numerical stack.
-    from thinfilm.exact1d.evolution import run_exact1d
-    from thinfilm.io import write_exact1d
-    from thinfilm.plots import plot_exact1d
-
-    with tqdm(total=scene.load.steps + 1, desc=Path(args.scene).stem, unit="step",
-              disable=True if args.quiet else None, file=sys.stderr) as bar:
-        tracks = run_exact1d(scene, progress=bar.update)
-    results, summary = write_exact1d(outdir, scene, tracks)
-    figures = plot_exact1d(results, outdir)
-    if not args.quiet:
-        for event in tracks["refined"].events:
-            cracks = ", ".join(f"{c:+.5f}" for c in event.cracks)
-            print(f"t = {event.t:.8g}: {len(event.cracks)} crack(s) at {cracks}")
-        print(f"wrote {results}, {summary}, " + ", ".join(str(p) for p in figures))
-    return 0
-
-
-def _run_plate(scene, outdir, args, resume=False):
+def _run_scene(scene, outdir, args, resume=False):
+    """Run a validated scene through its kind; returns the exit status."""
     from thinfilm.engine.evolution import EvolutionError
-    from thinfilm.io import ResumeError
-    from thinfilm.run import RunInterrupted, run_plate
+    from thinfilm.results.writer import ResumeError
+    from thinfilm.run import RunInterrupted, run
 
     try:
         with tqdm(total=scene.load.steps + 1, desc=Path(args.scene).stem, unit="step",
                   disable=True if args.quiet else None, file=sys.stderr) as bar:
-            out = run_plate(scene, outdir, progress=bar.update, resume=resume)
+            out = run(scene, outdir, progress=bar.update, resume=resume)
     except ResumeError as err:
         raise SceneError(args.scene, None, str(err)) from None
     except RunInterrupted as err:
@@ -86,10 +51,28 @@ def _run_plate(scene, outdir, args, resume=False):
         print(f"thinfilm: error: {err} (the finished steps are in {outdir / 'results.h5'})", file=sys.stderr)
         return EXIT_FAILED
     if not args.quiet:
-        for t, cracks in out["events"]:
-            print(f"t = {t:.6g}: {len(cracks)} crack(s) along y = 0 at " + ", ".join(f"{c:+.4f}" for c in cracks))
+        for line in out["report"]:
+            print(line)
         print(f"wrote {out['results']}, {out['summary']}, " + ", ".join(str(p) for p in out["figures"]))
     return 0
+
+
+def _run(args):
+    scene = load_scene(args.scene)
+    outdir = Path(args.out) if args.out else default_outdir(args.scene)
+    if outdir.exists() and not outdir.is_dir():
+        raise SceneError(args.scene, None, f"output path {outdir} exists and is not a directory (use --out DIR)")
+    if args.resume and args.force:
+        raise SceneError(args.scene, None, "--resume and --force exclude each other")
+    if args.resume and not kinds.get(scene.kind).resumable:
+        raise SceneError(args.scene, None, f'--resume: runs of kind "{scene.kind}" cannot be resumed (they are'
+                         " computed in one go)")
+    existing = [p.name for p in (outdir / "results.h5", outdir / "summary.json") if p.exists()]
+    if existing and not args.resume and not args.force:
+        raise SceneError(args.scene, None, f"output directory {outdir} already holds {', '.join(existing)};"
+                         " use --resume to continue the run or --force to overwrite it")
+    # --resume without results yet starts the run from its beginning.
+    return _run_scene(scene, outdir, args, resume=args.resume and (outdir / "results.h5").exists())
 
 
 def _compare(args):
@@ -99,7 +82,7 @@ def _compare(args):
     outdir = Path(args.out) if args.out else default_outdir(args.scene)
     results = outdir / "results.h5"
     if not results.exists():
-        status = _run_plate(scene, outdir, args)
+        status = _run_scene(scene, outdir, args)
         if status:
             return status
     from thinfilm.plate.compare import compare
@@ -126,7 +109,8 @@ def _plot(args):
     import math
 
     from thinfilm.plots import plot_results
-    from thinfilm.results import ResultsError
+    from thinfilm.results.reader import ResultsError
+    from thinfilm.run import EvolutionKind
 
     if args.t is not None and not all(math.isfinite(t) for t in args.t):
         return _inspect_error(f"--t {' '.join(map(str, args.t))}: loads must be finite numbers")
@@ -137,15 +121,16 @@ def _plot(args):
         kind, paths = plot_results(args.results, outdir, loads=args.t, animate=args.animate)
     except (ResultsError, OSError) as err:
         return _inspect_error(err)
-    if kind != "plate" and (args.t or args.animate):
-        print("thinfilm: warning: --t and --animate apply to plate runs only", file=sys.stderr)
+    if not isinstance(kinds.get(kind), EvolutionKind) and (args.t or args.animate):
+        print(f"thinfilm: warning: --t and --animate do not apply to {kind} runs", file=sys.stderr)
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 
 
 def _info(args):
     """``thinfilm info RESULTS.h5``: scene, versions, progress, last energies, timings."""
-    from thinfilm.results import ResultsError, describe
+    from thinfilm.results.info import describe
+    from thinfilm.results.reader import ResultsError
 
     try:
         print(describe(args.results))

@@ -1,26 +1,21 @@
-"""Figures drawn from a results file alone (never from live objects).
+"""Figures of a run driven by the engine, drawn from its results file alone (never from live objects).
 
-For an exact 1D run, like the dissertation's Fig. 2.15:
-
-* ``energy.png``: total energy against t (solid), and the energy branch
-  ``t^2/2 * coefficient + n G/a`` of every crack configuration the evolution visits
-  (dashed, over the whole load range), so each event shows as a crossing of branches;
-* ``cracks.png``: crack positions against t, each crack from its nucleation load on.
-
-For a plate run (:func:`plot_plate`), from the finished steps of ``results.h5`` (a run that
-stopped early is drawn as far as it got; :mod:`thinfilm.results`):
+From the finished steps of ``results.h5`` (a run that stopped early is drawn as far as it
+got; :mod:`thinfilm.results.reader`), for every kind (:func:`plot_run`):
 
 * ``energy.png``: elastic, surface and total energy against t;
-* ``cracks.png``: crack positions along y = 0 against t (local maxima of alpha > 0.9);
 * ``alpha.png``: the damage at the last finished step;
-* ``alpha_snapshots.png``, ``u_snapshots.png``: the damage and the deflection at a few loads
-  (nearest finished steps), one shared colour scale per figure: [0, 1] for alpha,
-  symmetric about 0 for u. 2D fields as images with the domain's aspect ratio, 1D fields as
-  curves;
+* ``alpha_snapshots.png``, ``u_snapshots.png``: the damage and the displacement at a few
+  loads (nearest finished steps), one shared colour scale per figure: [0, 1] for alpha,
+  symmetric about 0 for u. Fields on a 2D grid as images with the domain's aspect ratio, on a
+  2D mesh as coloured triangles, 1D fields as curves (a vector field, or a 3D mesh, is left
+  to the kind's own figures);
 * ``iterations.png``: alternate-minimization iterations and u-solves of each step;
-* ``alpha.gif`` (on request): the damage over the load, at most ~100 frames.
+* ``alpha.gif`` (on request): the damage over the load, at most ~100 frames;
 
-Lengths are in units of L, energies and the load t non-dimensional (MODEL.md).
+then the kind's own figures (:meth:`thinfilm.run.EvolutionKind.figures`: the film's crack
+positions and toughness field) and ``results.xdmf`` (:mod:`thinfilm.xdmf`). Titles, field
+labels and the length unit come from the kind (:class:`thinfilm.run.EvolutionKind`).
 """
 
 from __future__ import annotations
@@ -34,78 +29,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 import numpy as np  # noqa: E402
 
-from thinfilm.io import read_track  # noqa: E402
-from thinfilm.results import PlateResults, ResultsError, open_results  # noqa: E402
+from thinfilm import kinds  # noqa: E402
+from thinfilm.discretization import StructuredGrid  # noqa: E402
+from thinfilm.results.reader import Results, ResultsError, open_results  # noqa: E402
 
 
-def _energy_figure(data, path):
-    steps, events, p = data["steps"], data["events"], data["parameters"]
-    t = steps["t"]
-    fig, ax = plt.subplots(figsize=(6.0, 4.2), layout="constrained")
-    counts = np.concatenate(([0], events["crack_count"]))
-    colors = plt.cm.viridis(np.linspace(0.0, 0.85, len(counts)))
-    for coef, n, color in zip(events["branch_coefficient"], counts, colors):
-        ax.plot(t, 0.5 * t**2 * coef + n * p["toughness"], "--", lw=1.0, color=color,
-                label=f"{n} crack{'s' if n != 1 else ''}")
-    ax.plot(t, steps["total"], "-", lw=2.2, color="black", label="evolution (total)")
-    for te in events["t"]:
-        ax.axvline(te, color="0.6", lw=0.6, zorder=0)
-    ax.set_xlim(t[0], t[-1])
-    ax.set_ylim(0.0, 1.05 * steps["total"].max())
-    ax.set_xlabel("load t")
-    ax.set_ylabel("total energy $E^*_t$")
-    ax.set_title(f"exact evolution: $l_0$ = {p['length']:g}, $\\lambda$ = {p['lam']:g}, G/a = {p['toughness']:g}")
-    ax.legend(fontsize=8, loc="upper left")
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-
-
-def _cracks_figure(data, path):
-    steps, events, p = data["steps"], data["events"], data["parameters"]
-    t_max = steps["t"][-1]
-    fig, ax = plt.subplots(figsize=(6.0, 4.2), layout="constrained")
-    for te, new in zip(events["t"], events["new_cracks"]):
-        for x in new[np.isfinite(new)]:
-            ax.plot([te, t_max], [x, x], "-", color="tab:red", lw=1.6)
-            ax.plot([te], [x], "o", color="tab:red", ms=3.5)
-    half = 0.5 * p["length"]
-    ax.set_xlim(0.0, t_max)
-    ax.set_ylim(-half, half)
-    ax.set_xticks(sorted(set(np.round(np.concatenate(([0.0, t_max], events["t"])), 3))))
-    ax.tick_params(axis="x", labelrotation=45, labelsize=8)
-    ax.set_xlabel("load t (ticks at the event loads)")
-    ax.set_ylabel("crack position x")
-    ax.set_title("crack positions")
-    ax.grid(axis="y", color="0.9")
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-
-
-def plot_exact1d(results, outdir=None):
-    """Draw ``energy.png`` and ``cracks.png`` of an exact 1D results file.
-
-    Parameters
-    ----------
-    results : str or Path
-        ``results.h5`` of an exact 1D run.
-    outdir : str or Path, optional
-        Where to write; defaults to the file's directory.
-
-    Returns
-    -------
-    list of Path
-        The figures written.
-    """
-    results = Path(results)
-    outdir = Path(outdir) if outdir is not None else results.parent
-    data = read_track(results, "refined")
-    paths = [outdir / "energy.png", outdir / "cracks.png"]
-    _energy_figure(data, paths[0])
-    _cracks_figure(data, paths[1])
-    return paths
-
-
-# -- plate runs ---------------------------------------------------------------------------
 #: Damage from sound (light) to broken (dark), as alpha.png has always been drawn.
 ALPHA_CMAP = "magma_r"
 #: Deflection: diverging about u = 0, so that its sign reads at a glance.
@@ -115,7 +43,6 @@ DPI = 130
 SNAPSHOTS = 5
 #: Most frames of alpha.gif; longer runs are subsampled evenly (first and last step kept).
 MAX_FRAMES = 100
-_LABEL = {"alpha": r"damage $\alpha$", "u": "deflection u (L)"}
 
 
 def snapshot_steps(t, loads=None, count=SNAPSHOTS):
@@ -147,22 +74,46 @@ def snapshot_steps(t, loads=None, count=SNAPSHOTS):
     return np.unique(steps)
 
 
-def _progress(res):
+def progress_note(res):
     """Title suffix of a run that has not finished all its steps."""
     return "" if res.n >= res.n_planned else f" [{res.n} of {res.n_planned} steps finished]"
 
 
 def _model_title(res):
-    p = res.parameters
-    return (f"AT{p.get('at', '?')}, $\\lambda$ = {p.get('lam', float('nan')):g}, "
-            f"G/a = {p.get('toughness', float('nan')):g}, $\\eta$ = {p.get('eta', float('nan')):.3g}")
+    return kinds.get(res.kind).title(res.parameters)
 
 
-def _extent(res):
-    """Image extent with each pixel centred on its node (half pixels beyond the edges)."""
-    x, y = res.x, res.y
+def _label(res, field):
+    """The axis or colour-bar label of ``field`` (the kind's words and units)."""
+    return kinds.get(res.kind).labels[field]
+
+
+def _axis(res, name):
+    """``"x (L)"``: a coordinate axis in the kind's length unit."""
+    return f"{name} ({kinds.get(res.kind).length_unit})"
+
+
+def image_extent(grid):
+    """Image extent of a 2D :class:`StructuredGrid` with each pixel centred on its node (half
+    pixels beyond the edges)."""
+    x, y = grid.x, grid.y
     hx, hy = (x[-1] - x[0]) / (len(x) - 1), (y[-1] - y[0]) / (len(y) - 1)
     return (x[0] - hx / 2, x[-1] + hx / 2, y[0] - hy / 2, y[-1] + hy / 2)
+
+
+def _aspect(d):
+    """Height over width of a 2D domain (grid or mesh)."""
+    if isinstance(d, StructuredGrid):
+        return (d.y[-1] - d.y[0]) / (d.x[-1] - d.x[0])
+    span = np.ptp(d.points, axis=0)
+    return span[1] / span[0]
+
+
+def _abscissa(d):
+    """Node coordinates of a 1D discretization and the order that sorts them."""
+    x = d.x if isinstance(d, StructuredGrid) else d.points[:, 0]
+    order = np.argsort(x, kind="stable")
+    return x[order], order
 
 
 def _colour_range(field, values):
@@ -194,6 +145,25 @@ _MARGIN_L, _MARGIN_R, _MARGIN_T, _MARGIN_B = 0.95, 1.25, 0.7, 0.55
 _GAP_W, _GAP_H = 0.2, 0.4
 
 
+def _draw_field(ax, d, values, vmin, vmax, cmap):
+    """One 2D field on the axes: an image on a grid, coloured triangles on a mesh."""
+    if isinstance(d, StructuredGrid):
+        # "auto": nearest pixels when the grid is coarser than the screen, antialiased when
+        # finer, so that a crack band a few nodes wide never falls between the pixels.
+        image = ax.imshow(values, origin="lower", extent=image_extent(d), vmin=vmin, vmax=vmax, cmap=cmap,
+                          interpolation="auto")
+        ax.set_xlim(d.x[0], d.x[-1])
+        ax.set_ylim(d.y[0], d.y[-1])
+        return image
+    image = ax.tripcolor(d.points[:, 0], d.points[:, 1], d.cells, values, shading="gouraud", vmin=vmin,
+                         vmax=vmax, cmap=cmap)
+    low, high = d.points.min(axis=0), d.points.max(axis=0)
+    ax.set_xlim(low[0], high[0])
+    ax.set_ylim(low[1], high[1])
+    ax.set_aspect("equal")
+    return image
+
+
 def _draw_images(res, steps, field, values, path, title):
     """Images of ``values`` (shape (k, ny+1, nx+1)) at ``steps``, one colour scale and bar.
 
@@ -202,44 +172,39 @@ def _draw_images(res, steps, field, values, path, title):
     engine draws every panel's text several times).
     """
     vmin, vmax, cmap = _colour_range(field, values)
-    aspect = (res.y[-1] - res.y[0]) / (res.x[-1] - res.x[0])
+    d = res.discretization
+    aspect = _aspect(d)
     nrows, ncols, w, h = _panel_layout(len(steps), aspect)
     h_box = max(h, 0.3)  # a very thin strip still gets room for its y ticks (image centred)
     W = _MARGIN_L + ncols * w + (ncols - 1) * _GAP_W + _MARGIN_R
     H = _MARGIN_T + nrows * h_box + (nrows - 1) * _GAP_H + _MARGIN_B
     fig = plt.figure(figsize=(W, H))
-    extent = _extent(res)
     image = None
     for i, k in enumerate(steps):
         row, col = divmod(i, ncols)
         left = _MARGIN_L + col * (w + _GAP_W)
         bottom = _MARGIN_B + (nrows - 1 - row) * (h_box + _GAP_H)
         ax = fig.add_axes((left / W, bottom / H, w / W, h_box / H))
-        # "auto": nearest pixels when the grid is coarser than the screen, antialiased when
-        # finer, so that a crack band a few nodes wide never falls between the pixels.
-        image = ax.imshow(values[i], origin="lower", extent=extent, vmin=vmin, vmax=vmax, cmap=cmap,
-                          interpolation="auto")
-        ax.set_xlim(res.x[0], res.x[-1])
-        ax.set_ylim(res.y[0], res.y[-1])
+        image = _draw_field(ax, d, values[i], vmin, vmax, cmap)
         ax.yaxis.set_major_locator(MaxNLocator(nbins=4 if h_box > 1.0 else 2))
         ax.set_title(f"t = {res.t[k]:.4g} (step {k})", fontsize=9, pad=3)
         bottom_of_column = i + ncols >= len(steps)
         ax.tick_params(labelbottom=bottom_of_column, labelleft=col == 0, labelsize=8)
         if bottom_of_column:
-            ax.set_xlabel("x (L)")
+            ax.set_xlabel(_axis(res, "x"))
         if col == 0:
-            ax.set_ylabel("y (L)")
+            ax.set_ylabel(_axis(res, "y"))
     # One colour bar beside the panels, at most 4 in tall, centred on them.
     top, bottom = H - _MARGIN_T, _MARGIN_B
     bar = min(top - bottom, 4.0)
     cax = fig.add_axes(((W - _MARGIN_R + 0.2) / W, (bottom + (top - bottom - bar) / 2) / H, 0.15 / W, bar / H))
-    fig.colorbar(image, cax=cax, label=_LABEL[field])
+    fig.colorbar(image, cax=cax, label=_label(res, field))
     fig.suptitle(title, fontsize=10, y=1.0 - 0.12 / H, va="top")
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
 
 
-def _line_figure(width, height):
+def line_figure(width, height):
     """A figure of one axes with fixed margins (inches) for tick labels, axis labels and title.
 
     Fixed margins rather than a layout engine: at these sizes the figure looks the same and
@@ -251,19 +216,20 @@ def _line_figure(width, height):
 
 
 def _draw_curves(res, steps, field, values, path, title):
-    """Curves of ``values`` (shape (k, nx+1)) against x, coloured by load, on one axes."""
+    """Curves of ``values`` (shape (k, n_nodes)) against x, coloured by load, on one axes."""
     vmin, vmax, _ = _colour_range(field, values)
-    fig, ax = _line_figure(6.8, 4.2)
+    fig, ax = line_figure(6.8, 4.2)
     colors = plt.cm.viridis(np.linspace(0.0, 0.9, len(steps)))
+    x, order = _abscissa(res.discretization)
     for k, v, color in zip(steps, values, colors):
-        ax.plot(res.x, v, color=color, lw=1.4, label=f"t = {res.t[k]:.4g} (step {k})")
+        ax.plot(x, v[order], color=color, lw=1.4, label=f"t = {res.t[k]:.4g} (step {k})")
     pad = 0.02 * (vmax - vmin)
-    ax.set_xlim(res.x[0], res.x[-1])
+    ax.set_xlim(x[0], x[-1])
     ax.set_ylim(vmin - pad, vmax + pad)
     if field == "u":
         ax.axhline(0.0, color="0.7", lw=0.6, zorder=0)
-    ax.set_xlabel("x (L)")
-    ax.set_ylabel(_LABEL[field])
+    ax.set_xlabel(_axis(res, "x"))
+    ax.set_ylabel(_label(res, field))
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8, loc="best")
     fig.savefig(path, dpi=DPI)
@@ -272,16 +238,20 @@ def _draw_curves(res, steps, field, values, path, title):
 
 def _snapshots(res, outdir, field, loads=None, count=SNAPSHOTS, path=None, title=None):
     """Draw ``field`` at the steps of :func:`snapshot_steps` into ``path`` (default
-    ``outdir/<field>_snapshots.png``); ``res`` is an open :class:`PlateResults`."""
+    ``outdir/<field>_snapshots.png``); ``res`` is an open :class:`Results`. Returns the path,
+    or None for a field this module does not draw (a vector field, a 3D mesh)."""
     if res.n == 0:
         raise ResultsError(f"{res.path}: no finished step to plot")
+    d = res.discretization
+    if res.components(field) > 1 or d.dim > 2:
+        return None
     steps = snapshot_steps(res.t, loads, count)
     values = np.array([res.field(field, k) for k in steps])
     path = Path(path) if path is not None else Path(outdir) / f"{field}_snapshots.png"
     if title is None:
-        what = "damage" if field == "alpha" else "deflection"
-        title = f"{what} at {len(steps)} load{'s' if len(steps) != 1 else ''}: {_model_title(res)}{_progress(res)}"
-    (_draw_curves if res.dim == 1 else _draw_images)(res, steps, field, values, path, title)
+        what = _label(res, field).split(" ")[0]
+        title = f"{what} at {len(steps)} load{'s' if len(steps) != 1 else ''}: {_model_title(res)}{progress_note(res)}"
+    (_draw_curves if d.dim == 1 else _draw_images)(res, steps, field, values, path, title)
     return path
 
 
@@ -290,14 +260,14 @@ def _energies(res, outdir):
     steps = res.steps
     t = res.t
     marker = "." if res.n <= 40 else None  # few steps: show where they are
-    fig, ax = _line_figure(6.4, 4.2)
+    fig, ax = line_figure(6.4, 4.2)
     ax.plot(t, steps["elastic"], color="tab:blue", marker=marker, label="elastic")
     ax.plot(t, steps["surface"], color="tab:red", marker=marker, label="surface")
     ax.plot(t, steps["total"], color="black", lw=2, marker=marker, label="total")
     ax.set_xlim(0.0, max(res.t_max, t[-1] if res.n else 0.0))  # the full load range: an early stop shows
     ax.set_xlabel("load t")
-    ax.set_ylabel("energy (non-dimensional)")
-    ax.set_title(f"energies: {_model_title(res)}{_progress(res)}", fontsize=10)
+    ax.set_ylabel(_label(res, "energy"))
+    ax.set_title(f"energies: {_model_title(res)}{progress_note(res)}", fontsize=10)
     ax.legend()
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
@@ -308,7 +278,7 @@ def _iterations(res, outdir):
     path = Path(outdir) / "iterations.png"
     steps = res.steps
     t = res.t
-    fig, ax = _line_figure(6.4, 4.2)
+    fig, ax = line_figure(6.4, 4.2)
     ax.plot(t, steps["iterations"], "o-", ms=3, color="black", label="alternate-minimization iterations")
     ax.plot(t, steps["u_solves"], "s--", ms=3, color="tab:blue", label="u-solves")
     if "backtracks" in steps and np.any(steps["backtracks"] > 0):
@@ -321,54 +291,8 @@ def _iterations(res, outdir):
     ax.set_xlabel("load t")
     ax.set_ylabel("count per load step")
     ax.set_title(f"solver work per step: {int(steps['iterations'].sum())} iterations,"
-                 f" {int(steps['u_solves'].sum())} u-solves{_progress(res)}", fontsize=10)
+                 f" {int(steps['u_solves'].sum())} u-solves{progress_note(res)}", fontsize=10)
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
-    return path
-
-
-def _cracks(res, outdir):
-    path = Path(outdir) / "cracks.png"
-    fig, ax = _line_figure(6.4, 4.2)
-    for ti, cracks in zip(res.t, res.cracks()):  # one row per step: a large run is never read whole
-        ax.plot(np.full(cracks.shape, ti), cracks, "|", color="tab:red", ms=6)
-    ax.set_xlim(0.0, max(res.t_max, res.t[-1]))
-    ax.set_ylim(res.x[0], res.x[-1])
-    ax.set_xlabel("load t")
-    ax.set_ylabel("crack position x (L)" + (" on y = 0" if res.dim == 2 else ""))
-    ax.set_title(f"cracks (local maxima of alpha > 0.9){_progress(res)}", fontsize=10)
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
-    return path
-
-
-def _toughness(res, outdir):
-    """The toughness field of an imperfect film, ``toughness.png``; None for a uniform film."""
-    stored = res.file["fields"].get("toughness")
-    if stored is None:
-        return None
-    values = stored[()]
-    path = Path(outdir) / "toughness.png"
-    p = res.parameters
-    title = (f"toughness G/a = {p['toughness']:g} exp({p['toughness_noise']:g} $\\xi$)\n"
-             f"correlation length {p['toughness_noise_length']:.3g}, seed {p['toughness_noise_seed']}")
-    if res.dim == 1:
-        fig, ax = _line_figure(6.8, 3.2)
-        ax.plot(res.x, values, lw=1.0)
-        ax.set_xlim(res.x[0], res.x[-1])
-        ax.set_xlabel("x (L)")
-        ax.set_ylabel("G/a")
-    else:
-        aspect = (res.y[-1] - res.y[0]) / (res.x[-1] - res.x[0])
-        width = min(6.0, 4.5 / aspect)
-        fig, ax = _line_figure(width + 1.6, width * aspect + 1.2)
-        image = ax.imshow(values.reshape(len(res.y), len(res.x)), origin="lower", extent=_extent(res),
-                          cmap="cividis", interpolation="auto")
-        ax.set_xlabel("x (L)")
-        ax.set_ylabel("y (L)")
-        fig.colorbar(image, ax=ax, label="G/a", shrink=0.9)
-    ax.set_title(title, fontsize=9)
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
     return path
@@ -379,28 +303,32 @@ def _animate(res, outdir, max_frames=MAX_FRAMES, fps=10):
 
     path = Path(outdir) / "alpha.gif"
     frames = snapshot_steps(res.t, count=max_frames)
-    if res.dim == 1:
+    d = res.discretization
+    if d.dim == 1:
+        x, order = _abscissa(d)
         fig, ax = plt.subplots(figsize=(6.4, 3.4), layout="constrained")
-        (artist,) = ax.plot(res.x, res.field("alpha", frames[0]), color="tab:red", lw=1.5)
-        ax.set_xlim(res.x[0], res.x[-1])
+        (artist,) = ax.plot(x, res.field("alpha", frames[0])[order], color="tab:red", lw=1.5)
+        ax.set_xlim(x[0], x[-1])
         ax.set_ylim(-0.02, 1.02)
-        ax.set_ylabel(_LABEL["alpha"])
+        ax.set_ylabel(_label(res, "alpha"))
 
         def show(k):
-            artist.set_ydata(res.field("alpha", k))
-    else:
-        _, _, w, h = _panel_layout(1, (res.y[-1] - res.y[0]) / (res.x[-1] - res.x[0]))
+            artist.set_ydata(res.field("alpha", k)[order])
+    elif d.dim == 2:
+        _, _, w, h = _panel_layout(1, _aspect(d))
         fig, ax = plt.subplots(figsize=(w + 1.5, h + 1.2), layout="constrained")
-        artist = ax.imshow(res.field("alpha", frames[0]), origin="lower", extent=_extent(res), vmin=0.0,
-                           vmax=1.0, cmap=ALPHA_CMAP, interpolation="auto")
-        ax.set_xlim(res.x[0], res.x[-1])
-        ax.set_ylim(res.y[0], res.y[-1])
-        ax.set_ylabel("y (L)")
-        fig.colorbar(artist, ax=ax, label=_LABEL["alpha"])
+        artist = _draw_field(ax, d, res.field("alpha", frames[0]), 0.0, 1.0, ALPHA_CMAP)
+        ax.set_ylabel(_axis(res, "y"))
+        fig.colorbar(artist, ax=ax, label=_label(res, "alpha"))
 
         def show(k):
-            artist.set_data(res.field("alpha", k))
-    ax.set_xlabel("x (L)")
+            if isinstance(d, StructuredGrid):
+                artist.set_data(res.field("alpha", k))
+            else:
+                artist.set_array(res.field("alpha", k))
+    else:
+        raise ResultsError(f"{res.path}: alpha.gif is drawn for 1D and 2D runs only")
+    ax.set_xlabel(_axis(res, "x"))
     # Fixed-width numbers, and the layout frozen after the first frame, so that the axes do
     # not jitter from frame to frame as the title changes.
     last = res.n_planned - 1
@@ -427,7 +355,7 @@ def plot_snapshots(results, outdir=None, loads=None, field="alpha", count=SNAPSH
     Parameters
     ----------
     results : str or Path
-        ``results.h5`` of a plate run (or its run directory).
+        ``results.h5`` of a run (or its run directory).
     outdir : str or Path, optional
         Where to write; defaults to the file's directory.
     loads : sequence of float, optional
@@ -442,20 +370,20 @@ def plot_snapshots(results, outdir=None, loads=None, field="alpha", count=SNAPSH
     -------
     Path
     """
-    if field not in _LABEL:
-        raise ValueError(f"field = {field!r}: must be one of {', '.join(_LABEL)}")
-    with PlateResults(results) as res:
+    if field not in ("alpha", "u"):
+        raise ValueError(f"field = {field!r}: must be one of alpha, u")
+    with Results(results) as res:
         return _snapshots(res, outdir if outdir is not None else res.path.parent, field, loads, count)
 
 
 def plot_energies(results, outdir=None):
-    """Draw ``energy.png``: elastic, surface and total energy of a plate run against t.
+    """Draw ``energy.png``: elastic, surface and total energy of a run against t.
 
     Returns
     -------
     Path
     """
-    with PlateResults(results) as res:
+    with Results(results) as res:
         return _energies(res, outdir if outdir is not None else res.path.parent)
 
 
@@ -466,7 +394,7 @@ def plot_iterations(results, outdir=None):
     -------
     Path
     """
-    with PlateResults(results) as res:
+    with Results(results) as res:
         return _iterations(res, outdir if outdir is not None else res.path.parent)
 
 
@@ -476,7 +404,7 @@ def animate_alpha(results, outdir=None, max_frames=MAX_FRAMES, fps=10):
     Parameters
     ----------
     results : str or Path
-        ``results.h5`` of a plate run.
+        ``results.h5`` of a run.
     outdir : str or Path, optional
     max_frames : int, optional
         Longer runs are subsampled to this many steps, evenly, the first and last kept.
@@ -486,20 +414,20 @@ def animate_alpha(results, outdir=None, max_frames=MAX_FRAMES, fps=10):
     -------
     Path
     """
-    with PlateResults(results) as res:
+    with Results(results) as res:
         if res.n == 0:
             raise ResultsError(f"{res.path}: no finished step to animate")
         return _animate(res, outdir if outdir is not None else res.path.parent, max_frames, fps)
 
 
-def plot_plate(results, outdir=None, loads=None, animate=False, xdmf=True):
-    """Draw every figure of a plate results file (and its XDMF index).
+def plot_run(results, outdir=None, loads=None, animate=False, xdmf=True, opener=Results):
+    """Draw every figure of a run driven by the engine (and its XDMF index).
 
     Parameters
     ----------
     results : str or Path
-        ``results.h5`` of a plate run (or its run directory); a run that stopped early is
-        drawn up to its last finished step.
+        ``results.h5`` of the run (or its run directory); a run that stopped early is drawn
+        up to its last finished step.
     outdir : str or Path, optional
         Where to write; defaults to the file's directory.
     loads : sequence of float, optional
@@ -510,34 +438,34 @@ def plot_plate(results, outdir=None, loads=None, animate=False, xdmf=True):
     xdmf : bool, optional
         Also write ``results.xdmf`` (:func:`thinfilm.xdmf.write_xdmf`), so that the run path,
         which calls this function, leaves the index beside the fields.
+    opener : type, optional
+        The reader the kind's figures expect (a subclass of :class:`Results`).
 
     Returns
     -------
     list of Path
-        ``energy.png``, ``cracks.png``, ``alpha.png``, ``alpha_snapshots.png``,
-        ``u_snapshots.png``, ``iterations.png``, ``toughness.png`` for an imperfect film, then
+        ``energy.png``, then the kind's own figures (the film's ``cracks.png``), ``alpha.png``,
+        ``alpha_snapshots.png``, ``u_snapshots.png`` (those drawn: see the module docstring),
+        ``iterations.png``, the kind's figures drawn once (the film's ``toughness.png``), then
         ``alpha.gif`` and ``results.xdmf`` if asked for.
     """
-    with PlateResults(results) as res:
+    with opener(results) as res:
         if res.n == 0:
             raise ResultsError(f"{res.path}: no finished step to plot")
+        kind = kinds.get(res.kind)
         outdir = Path(outdir) if outdir is not None else res.path.parent
         outdir.mkdir(parents=True, exist_ok=True)
         if loads is None and "snapshots" in res.parameters:
             loads = res.parameters["snapshots"]
         last = res.n - 1
-        paths = [
-            _energies(res, outdir),
-            _cracks(res, outdir),
-            _snapshots(res, outdir, "alpha", loads=[res.t[last]], path=outdir / "alpha.png",
-                       title=f"damage at the last finished step: {_model_title(res)}{_progress(res)}"),
-            _snapshots(res, outdir, "alpha", loads),
-            _snapshots(res, outdir, "u", loads),
-            _iterations(res, outdir),
-        ]
-        toughness = _toughness(res, outdir)
-        if toughness is not None:
-            paths.append(toughness)
+        paths = [_energies(res, outdir), *kind.figures(res, outdir),
+                 _snapshots(res, outdir, "alpha", loads=[res.t[last]], path=outdir / "alpha.png",
+                            title=f"damage at the last finished step: {_model_title(res)}{progress_note(res)}"),
+                 _snapshots(res, outdir, "alpha", loads),
+                 _snapshots(res, outdir, "u", loads),
+                 _iterations(res, outdir),
+                 *kind.constant_figures(res, outdir)]
+        paths = [p for p in paths if p is not None]
         if animate:
             paths.append(_animate(res, outdir))
     if xdmf:
@@ -550,9 +478,6 @@ def plot_plate(results, outdir=None, loads=None, animate=False, xdmf=True):
 def plot_results(results, outdir=None, loads=None, animate=False):
     """Draw the figures of any thinfilm results file, by its kind.
 
-    Exact 1D runs get :func:`plot_exact1d` (``loads`` and ``animate`` do not apply); plate
-    runs :func:`plot_plate`.
-
     Returns
     -------
     kind : str
@@ -563,7 +488,5 @@ def plot_results(results, outdir=None, loads=None, animate=False):
         kind = f.attrs["kind"]
         kind = kind.decode() if isinstance(kind, bytes) else str(kind)
     outdir = Path(outdir) if outdir is not None else path.parent
-    if kind == "exact1d":
-        outdir.mkdir(parents=True, exist_ok=True)
-        return kind, plot_exact1d(path, outdir)
-    return kind, plot_plate(path, outdir, loads=loads, animate=animate)
+    outdir.mkdir(parents=True, exist_ok=True)
+    return kind, kinds.get(kind).plot(path, outdir, loads=loads, animate=animate)

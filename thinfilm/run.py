@@ -1,187 +1,101 @@
-"""Run a plate scene: grid, model, engine, results written step by step.
+"""Running a scene: ``run(scene, outdir)``, and the run of every kind the engine drives.
 
-The data flow of DESIGN.md: scene -> :class:`thinfilm.plate.model.PlateModel` -> evolution engine
-(:class:`thinfilm.engine.evolution.Engine`) -> step records and fields, each appended to
-``results.h5`` and flushed as soon as the step is done -> ``summary.json`` and figures,
-made from the file.
+The data flow of one run::
+
+    scene -> its kind (thinfilm.kinds) -> Setup: the model, its discretization, ...
+          -> Engine (thinfilm.engine): load steps, alternate minimization, backtracking...
+          -> each finished step appended to results.h5 and flushed (thinfilm.results)
+          -> summary.json and figures, made from the file alone (thinfilm.plots, thinfilm.xdmf)
+
+:class:`EvolutionKind` implements a kind's ``run``, ``plot`` and ``info`` for models driven by
+the engine; a kind derives from it and writes :meth:`~EvolutionKind.setup` (build the model
+and describe its discretization) and :meth:`~EvolutionKind.parameters`, and may add a
+summary, figures and report lines of its own.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 import signal
 import threading
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
-from thinfilm.plate import loads
-from thinfilm.engine.evolution import AltMinOptions, BacktrackOptions, Engine, SearchOptions, StabilityOptions
-from thinfilm.plate.grid import Grid
-from thinfilm.plate.imperfection import toughness_factor
-from thinfilm.io import PlateResultsWriter, write_plate_summary
-from thinfilm.solvers.linear import make_solver
-from thinfilm.plate.model import PlateModel
-from thinfilm.results import PlateResults
-from thinfilm.scene import SceneError
-from thinfilm.plate.sequencing import CoarseDamage
-from thinfilm.plate.symmetry import GridSymmetry
+from thinfilm import kinds
+from thinfilm.engine.evolution import Engine
+from thinfilm.results.info import seconds
+from thinfilm.results.reader import Results
+from thinfilm.results.writer import ResultsWriter, write_summary
+
+__all__ = ["run", "Setup", "EvolutionKind", "RunInterrupted", "load_steps"]
 
 log = logging.getLogger("thinfilm")
 
 
-def build_grid(domain):
-    """The structured grid of a :class:`thinfilm.scene.Domain`."""
-    if domain.dim == 1:
-        return Grid.line(domain.x[0], domain.x[1], domain.cells[0])
-    return Grid.rectangle(domain.x[0], domain.x[1], domain.cells[0], domain.y[0], domain.y[1], domain.cells[1])
-
-
-def make_load(scene, grid):
-    """The scene's substrate displacement (:mod:`thinfilm.plate.loads`)."""
-    load = scene.load
-    if load.kind == "bending":
-        return loads.bending(grid)
-    if load.kind == "cantilever":
-        return loads.cantilever(grid)
-    if load.kind == "indenter":
-        return loads.indenter(grid, load.radius)
-    return loads.field(grid, load.field)
-
-
-def resolution_warnings(scene):
-    """Warnings for scenes whose regularization cannot resolve the expected pattern.
-
-    The damage band has width ``~ 4 eta``; the plate's response decays over ``1/lam`` and
-    cracks of the exact 1D solution are at least ``~ 3/lam`` apart, so ``eta lam`` well below
-    1 is needed (SOLVER_NOTES.md: ``eta lam = 0.53`` goes diffuse on the Fig. 2.7 strip, 0.26
-    resolves it). An indenter whose contact disk comes within a few decay lengths of a free
-    edge feels the edge (and would better be run on a larger domain).
-    """
-    m, dom = scene.model, scene.domain
-    out = []
-    if m.eta * m.lam > 0.4:
-        out.append(f"eta * lam = {m.eta * m.lam:.2f} > 0.4: the regularization length is not small against the"
-                   f" decay length 1/lam = {1 / m.lam:.4g}; damage may go diffuse and cracks merge")
-    if m.eta < 2.0 * dom.dx:
-        out.append(f"eta = {m.eta:.4g} is less than 2 grid cells (dx = {dom.dx:.4g}): the damage"
-                   " profile is not resolved and the crack energy is overestimated")
-    if scene.load.kind == "indenter":
-        t = scene.load.t_max
-        contact = scene.load.radius * math.sqrt(t * (2.0 - t))
-        edges = [abs(v) for v in dom.x] + ([abs(v) for v in dom.y] if dom.y else [])
-        gap = min(edges) - contact
-        if gap < 3.0 / m.lam:
-            out.append(f"the contact radius reaches {contact:.4g} at t = {t:g}, {gap:.4g} from a free edge: less than"
-                       f" 3 decay lengths (3/lam = {3 / m.lam:.4g}); the edge changes the cracks")
-    return out
-
-
-def describe(scene):
-    """Lines for the run log: the non-dimensional groups, the decay length, the grid."""
-    m, dom = scene.model, scene.domain
-    lines = []
-    if scene.material is not None:
-        mat = scene.material
-        g = mat.groups()
-        lines.append(f"material: E = {mat.E:.4g} Pa, nu = {mat.nu:g}, h = {mat.h:.4g} m, Gc = {mat.Gc:.4g} J/m^2,"
-                     f" K_b = {mat.bond_stiffness:.4g} Pa/m, L = {mat.L:.4g} m")
-        lines.append(f"groups (2.13): K~ = {g['K_tilde']:.4g}, G~ = {g['G_tilde']:.4g}, a = h/L = {g['a']:.4g}"
-                     f" -> winkler = K~/a^4 = {g['winkler']:.4g}, toughness = G~/a = {g['toughness']:.4g}")
-    lines.append(f"decay length 1/lam = {1 / m.lam:.4g} (lam = {m.lam:.4g}, winkler = {m.winkler:.4g});"
-                 f" eta = {m.eta:.4g} = {m.eta / dom.dx:.3g} dx; eta * lam = {m.eta * m.lam:.3g}")
-    if m.toughness_noise > 0:
-        lines.append(f"imperfect film: toughness G/a = {m.toughness:g} exp({m.toughness_noise:g} xi), xi Gaussian with"
-                     f" correlation length {m.toughness_noise_length:.4g} ({m.toughness_noise_length / dom.dx:.3g} dx),"
-                     f" seed {m.toughness_noise_seed}")
-    return lines
-
-
-def make_model(scene, grid):
-    """The :class:`PlateModel` of a plate scene."""
-    m = scene.model
-    load = make_load(scene, grid)
-    plate_nu = m.nu if grid.dim == 2 else 0.0
-    symmetry = make_symmetry(scene, grid, load)
-    factor = toughness_factor(grid, m.toughness_noise, m.toughness_noise_length, m.toughness_noise_seed, symmetry)
-    model = PlateModel(grid, plate_nu, m.winkler, m.k_res, m.eta, m.toughness, m.at, load.w,
-                       proportional=load.proportional, linear_solver=None, clamped=load.clamped,
-                       trial_radius=m.eta, symmetry=symmetry, toughness_factor=factor)
-    coords = np.column_stack(grid.coordinates)
-    if symmetry is not None:
-        coords = coords[symmetry.representative]
-    model.linear_solver = make_solver(scene.solver.linear, model.reduced_matrix(np.zeros(grid.n_nodes)),
-                                      coords=coords)
-    return model
-
-
-def make_symmetry(scene, grid, load):
-    """The :class:`GridSymmetry` of ``[domain] symmetry`` (None for ``"none"``), after
-    checking that the clamped edges and the load are invariant under it.
-
-    Raises
-    ------
-    SceneError
-        If they are not: the restriction would then solve another problem.
-    """
-    group = scene.domain.symmetry
-    if group == "none":
-        return None
-    symmetry = GridSymmetry(grid, group)
-    if not symmetry.maps_edges(load.clamped):
-        raise SceneError(scene.source, "domain.symmetry",
-                         f'= "{group}": the clamped edges ({", ".join(load.clamped)}) are not mapped onto'
-                         f' themselves by its mirrors; use "none" or a group that keeps them')
-    # Every load of the run (a non-proportional load may change shape with t).
-    for t in np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)[1:]:
-        w = load.w(t)
-        scale = float(np.max(np.abs(w)))
-        asymmetry = symmetry.asymmetry(w)
-        # Not to round-off: node coordinates are mirrored only to round-off, which the
-        # indenter's sqrt(R^2 - r^2) amplifies near the contact edge (5e-9 of |w| at t = 1).
-        if asymmetry > 1e-6 * scale:
-            raise SceneError(scene.source, "domain.symmetry",
-                             f'= "{group}": the load ({scene.load.kind}) at t = {t:g} is not invariant under its'
-                             f" mirrors (largest difference {asymmetry:.3g} against |w| <= {scale:.3g});"
-                             ' use "none" or a group the load has')
-    return symmetry
-
-
-def make_engine(scene, model):
-    """The evolution engine with the scene's solver options."""
-    s = scene.solver
-    return Engine(
-        model,
-        AltMinOptions(tol=s.tol, max_iter=s.max_iter, acceleration=s.acceleration, omega=s.omega),
-        BacktrackOptions(kind=s.backtrack, delta=s.backtrack_delta, interval=s.backtrack_interval,
-                         direction=s.backtrack_direction, scope=s.backtrack_scope),
-        SearchOptions(enabled=s.search, delta=s.search_delta),
-        StabilityOptions(enabled=s.stability, tol=s.stability_tol),
-    )
-
-
-def crack_events(t, cracks):
-    """Crack events of a run: the steps where the number of cracks changes.
+def run(scene, outdir, progress=lambda n: None, resume=False):
+    """Run a validated scene of any kind and write its results, summary and figures.
 
     Parameters
     ----------
-    t : ndarray, shape (n,)
-        Loads of the steps.
-    cracks : sequence of ndarray
-        Crack positions at each step (:meth:`thinfilm.results.PlateResults.cracks`).
+    scene : object
+        A scene from :func:`thinfilm.scene.load_scene`.
+    outdir : str or Path
+    progress : callable
+        Called with the number of newly finished steps.
+    resume : bool
+        Continue ``outdir/results.h5`` from its last finished step (kinds that can).
 
     Returns
     -------
-    list of (float, ndarray)
-        ``(t, crack positions)`` at every step where the number of cracks changes.
+    dict
+        ``results``, ``summary``, ``figures`` (paths) and ``report`` (lines for the user).
     """
-    events, last = [], 0
-    for ti, positions in zip(t, cracks):
-        if len(positions) != last:
-            events.append((float(ti), positions))
-            last = len(positions)
-    return events
+    return kinds.get(scene.kind).run(scene, Path(outdir), progress=progress, resume=resume)
+
+
+def load_steps(load):
+    """The loads of a scene's steps, ``t_0 = 0, ..., t_max`` in ``steps`` equal steps."""
+    return np.linspace(0.0, load.t_max, load.steps + 1)
+
+
+@dataclass
+class Setup:
+    """What a kind builds from a scene for one run of the engine.
+
+    Attributes
+    ----------
+    model : thinfilm.engine.protocol.FractureModel
+    discretization : StructuredGrid or SimplexMesh
+        How the model's nodes are laid out (:mod:`thinfilm.discretization`).
+    components : dict
+        Values per node of ``u`` and ``alpha`` if not 1 (a vector displacement).
+    constant : dict
+        Fields stored once in the results, ``{name: ndarray (n_nodes,)}``.
+    groups : dict
+        Attribute-only groups of the results file, ``{name: attrs}`` (e.g. ``material``).
+    guess : callable or None
+        ``guess(t) -> alpha or None``: a damage field to start each step from
+        (:meth:`thinfilm.engine.evolution.Engine.run`).
+    observe : callable or None
+        ``observe(u, alpha, t) -> {name: float}``: the kind's own per-step values (e.g. a
+        reaction force), stored in ``/steps`` under the names of :attr:`observables`.
+    observables : tuple of str
+    log : list of str
+        Lines for the run log (what was built).
+    """
+
+    model: object
+    discretization: object
+    components: dict = field(default_factory=dict)
+    constant: dict = field(default_factory=dict)
+    groups: dict = field(default_factory=dict)
+    guess: Callable | None = None
+    observe: Callable | None = None
+    observables: tuple = ()
+    log: list = field(default_factory=list)
 
 
 class RunInterrupted(Exception):
@@ -221,73 +135,148 @@ class _StopOnInterrupt:
             signal.signal(signal.SIGINT, self._previous)
 
 
-def run_plate(scene, outdir, progress=lambda n: None, resume=False):
-    """Run a plate scene and write ``results.h5``, ``summary.json`` and the figures.
+class EvolutionKind:
+    """A model kind driven by the engine: ``run``, ``plot`` and ``info`` from a few hooks.
 
-    Every finished step is in ``results.h5`` (flushed) as soon as it is done, so a run that
-    is killed leaves a valid file, and ``resume=True`` continues it from its last finished
-    step to the same results as an uninterrupted run. Ctrl-C finishes and saves the current
-    step, closes the file and raises :class:`RunInterrupted` (a second Ctrl-C stops at
-    once); a solver failure (:class:`thinfilm.engine.evolution.EvolutionError`) propagates with
-    the finished steps saved.
-
-    Parameters
-    ----------
-    scene : thinfilm.scene.PlateScene
-    outdir : Path
-    progress : callable
-        Called with the number of newly finished steps.
-    resume : bool
-        Continue ``outdir/results.h5`` (written by the same scene text).
-
-    Returns
-    -------
-    dict
-        Paths of what was written (``results``, ``summary``, ``figures``) and the
-        ``events``.
+    A subclass sets :attr:`name` and writes :meth:`parse`, :meth:`setup` and
+    :meth:`parameters`; the other hooks have defaults. :attr:`title`, :attr:`labels` and
+    :attr:`length_unit` word its figures.
     """
-    outdir = Path(outdir)
-    grid = build_grid(scene.domain)
-    model = make_model(scene, grid)   # may refuse the scene (SceneError): nothing logged or written yet
-    for line in describe(scene):
-        log.info(line)
-    for message in resolution_warnings(scene):
-        log.warning(message)
-    outdir.mkdir(parents=True, exist_ok=True)
-    if model.symmetry is not None:
-        log.info(f'symmetry "{model.symmetry.group}": u and alpha invariant under its mirrors;'
-                 f" u-solves of {model.symmetry.n_orbits} unknowns instead of {grid.n_nodes}")
-    engine = make_engine(scene, model)
-    t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
-    guess = None
-    if scene.solver.coarse is not None:
-        guess = CoarseDamage(scene.solver.coarse, grid)
-        log.info(f"grid sequencing: each step starts from the damage of {scene.solver.coarse}"
-                 f" ({guess.t.size} steps) at the same load")
-    results = outdir / "results.h5"
-    factor = model.damage.toughness_factor
-    writer = PlateResultsWriter(results, scene, grid, resume=resume,
-                                toughness=None if factor is None else scene.model.toughness * factor)
-    history = writer.history(all_alpha=scene.solver.backtrack != "none") if resume else []
-    if history:
-        log.info(f"resuming {results} after step {len(history) - 1} (t = {history[-1].t:g})")
-        progress(len(history))
-    with _StopOnInterrupt() as stop:
-        def on_step(record, state):
-            writer.write_step(record, state)
-            if stop.requested:
-                raise KeyboardInterrupt
 
-        try:
-            engine.run(t_values, on_step=on_step, progress=progress, history=history, guess=guess)
-        except KeyboardInterrupt:
-            raise RunInterrupted(results, writer.trim()) from None
-        finally:
-            writer.close()
-    with PlateResults(results) as res:
-        events = crack_events(res.t, res.cracks())
-        summary = write_plate_summary(outdir / "summary.json", scene, res, events)
-    from thinfilm.plots import plot_plate
+    name = ""
+    resumable = True
+    #: Datasets every results file of the kind has (checked when one is opened).
+    required_datasets = ("fields/u", "fields/alpha")
+    #: Axis and colour-bar labels of the figures.
+    labels = {"alpha": r"damage $\alpha$", "u": "displacement u", "energy": "energy"}
+    #: The unit of lengths (axes of the field figures).
+    length_unit = "L"
+    #: The reader of the kind's results files (a subclass of :class:`Results` with the
+    #: readings its figures and summary use).
+    results_class = Results
 
-    figures = plot_plate(results, outdir)  # with the scene's snapshot loads, stored in the file
-    return {"results": results, "summary": summary, "figures": figures, "events": events}
+    # -- hooks -------------------------------------------------------------------------------
+    def parse(self, source, data, text):  # pragma: no cover - every kind writes its own
+        raise NotImplementedError
+
+    def setup(self, scene) -> Setup:  # pragma: no cover
+        """Build the model for a run (may raise :class:`thinfilm.scene.SceneError`)."""
+        raise NotImplementedError
+
+    def parameters(self, scene) -> dict:  # pragma: no cover
+        """The attributes of ``/parameters`` (``t_max`` and ``steps`` among them)."""
+        raise NotImplementedError
+
+    def warnings(self, scene) -> list[str]:
+        """Warnings for the user before the run starts (e.g. an unresolved length)."""
+        return []
+
+    def summary(self, scene, results) -> dict:
+        """The kind's own entries of ``summary.json``, from the open :class:`Results`."""
+        return {}
+
+    def report(self, scene, results, summary) -> list[str]:
+        """Lines printed at the end of ``thinfilm run`` (before the list of files)."""
+        return []
+
+    def figures(self, results, outdir) -> list:
+        """The kind's own figures of the evolution (paths; None for one not drawn)."""
+        return []
+
+    def constant_figures(self, results, outdir) -> list:
+        """The kind's figures of fields stored once (paths)."""
+        return []
+
+    def title(self, parameters) -> str:
+        """The model in a few words, for figure titles."""
+        return self.name
+
+    # -- what the hooks make ---------------------------------------------------------------------
+    def run(self, scene, outdir, progress=lambda n: None, resume=False):
+        """Run a scene and write ``results.h5``, ``summary.json`` and the figures.
+
+        Every finished step is in ``results.h5`` (flushed) as soon as it is done, so a run
+        that is killed leaves a valid file, and ``resume=True`` continues it from its last
+        finished step to the same results as an uninterrupted run. Ctrl-C finishes and saves
+        the current step, closes the file and raises :class:`RunInterrupted` (a second Ctrl-C
+        stops at once); a solver failure (:class:`thinfilm.engine.evolution.EvolutionError`)
+        propagates with the finished steps saved.
+
+        Returns
+        -------
+        dict
+            ``results``, ``summary``, ``figures`` (paths), ``report`` (lines) and ``events``
+            (the kind's summary's events, if any).
+        """
+        outdir = Path(outdir)
+        setup = self.setup(scene)  # may refuse the scene (SceneError): nothing logged or written yet
+        for line in setup.log:
+            log.info(line)
+        for message in self.warnings(scene):
+            log.warning(message)
+        outdir.mkdir(parents=True, exist_ok=True)
+        engine = Engine.from_options(setup.model, scene.solver)
+        results = outdir / "results.h5"
+        writer = ResultsWriter(results, scene, self.parameters(scene), setup.discretization,
+                               components=setup.components, observables=setup.observables,
+                               constant=setup.constant, groups=setup.groups, resume=resume)
+        history = writer.history(all_alpha=scene.solver.backtrack.kind != "none") if resume else []
+        if history:
+            log.info(f"resuming {results} after step {len(history) - 1} (t = {history[-1].t:g})")
+            progress(len(history))
+        with _StopOnInterrupt() as stop:
+            def on_step(record, state):
+                observed = setup.observe(state.u, state.alpha, state.t) if setup.observe else None
+                writer.write_step(record, state, observed)
+                if stop.requested:
+                    raise KeyboardInterrupt
+
+            try:
+                engine.run(load_steps(scene.load), on_step=on_step, progress=progress, history=history,
+                           guess=setup.guess)
+            except KeyboardInterrupt:
+                raise RunInterrupted(results, writer.trim()) from None
+            finally:
+                writer.close()
+        with self.results_class(results) as res:
+            extra = self.summary(scene, res)
+            summary = write_summary(outdir / "summary.json", scene, res, extra)
+            report = self.report(scene, res, extra)
+        figures = self.plot(results, outdir)  # with the scene's snapshot loads, stored in the file
+        return {"results": results, "summary": summary, "figures": figures, "report": report,
+                "events": extra.get("events", [])}
+
+    def plot(self, results, outdir=None, loads=None, animate=False):
+        """Every figure of a results file of this kind, and its XDMF index."""
+        from thinfilm.plots import plot_run
+
+        return plot_run(results, outdir, loads=loads, animate=animate, opener=self.results_class)
+
+    def info(self, f, steps) -> list[str]:
+        """``thinfilm info``'s lines on the solver's work: timings, iterations, stability."""
+        n = len(steps["t"])
+        if "time_total" not in steps:
+            return []
+        t = steps["t"]
+
+        def total(name):
+            return steps[name].sum() if name in steps else 0
+
+        lines = [f"timings (summed over the {n} finished steps):",
+                 f"  wall time     {seconds(float(total('time_total')))}",
+                 f"  u-solves      {seconds(float(total('time_u')))}"
+                 f" ({int(total('u_solves'))} solves, {int(total('u_solves_skipped'))} skipped)",
+                 f"  alpha-solves  {seconds(float(total('time_alpha')))}",
+                 f"  iterations    {int(total('iterations'))} alternate-minimization iterations"
+                 f" (most in one step: {int(steps['iterations'].max()) if n else 0})",
+                 f"  backtracks    {int(total('backtracks'))}; trials (search, stability)"
+                 f" {int(total('trials'))} ({int(total('trials_accepted'))} kept)"]
+        if "lowest_curvature" in steps and n and np.isfinite(steps["lowest_curvature"]).any():
+            curvature = steps["lowest_curvature"]
+            checked = np.isfinite(curvature)
+            unstable = np.flatnonzero(checked & (curvature < 0))
+            lines.append(f"stability: {int(total('saddles_left'))} saddle(s) left; lowest curvature at the kept"
+                         f" states {np.nanmin(curvature):.3g} toughness/eta"
+                         + (f"; still negative at t = {', '.join(f'{t[k]:.4g}' for k in unstable)}"
+                            if len(unstable) else ""))
+        return lines

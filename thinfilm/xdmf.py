@@ -1,13 +1,18 @@
-"""An XDMF index of a plate ``results.h5``, so that ParaView (or VisIt) opens the fields.
+"""An XDMF index of a ``results.h5``, so that ParaView (or VisIt) opens the fields.
 
 ``results.xdmf`` is light XML only: an XDMF 3 temporal collection with one grid per finished
-step (its ``Time`` the load t), each a uniform structured mesh with the node attributes
-``alpha`` and ``u`` (and ``toughness`` for an imperfect film). The attributes point into
+step (its ``Time`` the load t), each with the node attributes ``alpha`` and ``u`` (and every
+field stored once, such as the toughness of an imperfect film). The attributes point into
 ``/fields/alpha`` and ``/fields/u`` of the HDF5 file by hyperslab (row k of the
-``(n_steps, n_nodes)`` dataset; ``/fields/toughness`` whole), so nothing is copied;
-the HDF5 path is relative to the XDMF file, so the run directory can be moved whole.
+``(n_steps, n_values)`` dataset; a field stored once whole), so nothing is copied; the HDF5
+path is relative to the XDMF file, so the run directory can be moved whole. A vector field
+(``components`` > 1, e.g. the displacement of a finite-element solid) is a ``Vector``
+attribute of shape ``(n_nodes, components)``.
 
-The mesh is a ``3DCoRectMesh`` of one layer in every case:
+The topology and geometry come from the run's discretization
+(:meth:`thinfilm.discretization.StructuredGrid.xdmf`, :meth:`~thinfilm.discretization.SimplexMesh.xdmf`).
+A mesh of triangles or tetrahedra points into ``/mesh/cells`` and ``/mesh/points``. A
+structured grid is a ``3DCoRectMesh`` of one layer in every case:
 
 * 2D run: ``Dimensions = "1 ny+1 nx+1"``, origin ``(0, y0, x0)``, spacing ``(hx, hy, hx)``;
 * 1D run: ``Dimensions = "1 1 nx+1"``, origin ``(0, 0, x0)``: a single row of nodes along x.
@@ -37,15 +42,10 @@ import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from thinfilm.results import PlateResults, ResultsError
+from thinfilm.results.reader import Results, ResultsError
 
 #: Node attributes written for every step, from ``/fields/<name>``.
 FIELDS = ("alpha", "u")
-
-
-def _numbers(values):
-    """Floats in XML text, exactly (``repr`` round-trips a float64)."""
-    return " ".join(repr(float(v)) for v in values)
 
 
 def _reference(h5_path, xdmf_path):
@@ -57,41 +57,17 @@ def _reference(h5_path, xdmf_path):
         return h5_path.as_posix()
 
 
-def mesh_description(res):
-    """Topology dimensions, origin and spacing of the one-layer ``3DCoRectMesh``.
-
-    Parameters
-    ----------
-    res : thinfilm.results.PlateResults
-
-    Returns
-    -------
-    dims : tuple of int, length 3
-        ``(1, ny+1, nx+1)`` or ``(1, 1, nx+1)``: nodes along z, y, x.
-    origin, spacing : tuple of float, length 3
-        In the same z, y, x order. The z (and, in 1D, y) spacing is hx: any positive value
-        would do for a single layer; hx keeps the cells' bounding boxes unskewed.
-    """
-    x = res.x
-    nx = len(x) - 1
-    g = res.grid_attrs
-    # hx from the end points, as thinfilm.plate.grid builds the nodes, not from a difference of
-    # two rounded coordinates.
-    hx = (float(g["x1"]) - float(g["x0"])) / nx if "x1" in g and "x0" in g else float(x[1] - x[0])
-    if res.dim == 1:
-        return (1, 1, nx + 1), (0.0, 0.0, float(x[0])), (hx, hx, hx)
-    y = res.y
-    ny = len(y) - 1
-    hy = (float(g["y1"]) - float(g["y0"])) / ny if "y1" in g and "y0" in g else float(y[1] - y[0])
-    return (1, ny + 1, nx + 1), (0.0, float(y[0]), float(x[0])), (hx, hy, hx)
+def _field_dims(dims, components):
+    """The Dimensions of an attribute of ``components`` values per node on a mesh of ``dims``."""
+    return " ".join(map(str, dims + ((components,) if components > 1 else ())))
 
 
 def build_xdmf(res, reference):
-    """The XDMF document of a plate run.
+    """The XDMF document of a run.
 
     Parameters
     ----------
-    res : thinfilm.results.PlateResults
+    res : thinfilm.results.reader.Results
         The open results; one grid per finished step ``0 .. res.n - 1``.
     reference : str
         The HDF5 file's name as the XDMF reader should open it (relative to the XDMF file).
@@ -101,7 +77,6 @@ def build_xdmf(res, reference):
     xml.etree.ElementTree.Element
         The ``<Xdmf>`` root.
     """
-    dims, origin, spacing = mesh_description(res)
     f = res.file
     root = ET.Element("Xdmf", Version="3.0")
     domain = ET.SubElement(root, "Domain")
@@ -110,45 +85,43 @@ def build_xdmf(res, reference):
                         f" fields {', '.join(FIELDS)} by hyperslab from {reference}")
     collection = ET.SubElement(domain, "Grid", Name="evolution", GridType="Collection", CollectionType="Temporal")
     datasets = {name: f[f"fields/{name}"] for name in FIELDS}
-    toughness = f["fields"].get("toughness")
+    constant = {name: ds for name, ds in f["fields"].items() if name not in FIELDS}
     for k in range(res.n):
         grid = ET.SubElement(collection, "Grid", Name=f"step {k}", GridType="Uniform")
         ET.SubElement(grid, "Time", Value=repr(float(res.t[k])))
-        ET.SubElement(grid, "Topology", TopologyType="3DCoRectMesh", Dimensions=" ".join(map(str, dims)))
-        geometry = ET.SubElement(grid, "Geometry", GeometryType="ORIGIN_DXDYDZ")
-        for name, values in (("Origin", origin), ("Spacing", spacing)):
-            item = ET.SubElement(geometry, "DataItem", Name=name, Dimensions="3", NumberType="Float",
-                                 Precision="8", Format="XML")
-            item.text = _numbers(values)
+        dims = res.discretization.xdmf(grid, reference)
         for name, ds in datasets.items():
-            rows, n_nodes = ds.shape
-            attribute = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar", Center="Node")
+            rows, n_values = ds.shape
+            components = res.components(name)
+            attribute = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar" if components == 1
+                                      else "Vector", Center="Node")
             # A hyperslab is (start, stride, count) per dimension of the source: one row of
-            # n_nodes values, x fastest. Its own Dimensions give that row the mesh's shape
-            # (z, y, x): the legacy Xdmf2 reader reads structured attributes by sub-extent
-            # and needs them; the Xdmf3 reader takes the count and finds one value per node.
+            # n_values values, x fastest. Its own Dimensions give that row the mesh's shape
+            # (z, y, x for a grid): the legacy Xdmf2 reader reads structured attributes by
+            # sub-extent and needs them; the Xdmf3 reader takes the count and finds one value
+            # per node.
             slab = ET.SubElement(attribute, "DataItem", ItemType="HyperSlab", Type="HyperSlab",
-                                 Dimensions=" ".join(map(str, dims)))
+                                 Dimensions=_field_dims(dims, components))
             selection = ET.SubElement(slab, "DataItem", Dimensions="3 2", NumberType="UInt", Format="XML")
-            selection.text = f"{k} 0 1 1 1 {n_nodes}"
-            source = ET.SubElement(slab, "DataItem", Dimensions=f"{rows} {n_nodes}", NumberType="Float",
+            selection.text = f"{k} 0 1 1 1 {n_values}"
+            source = ET.SubElement(slab, "DataItem", Dimensions=f"{rows} {n_values}", NumberType="Float",
                                    Precision=str(ds.dtype.itemsize), Format="HDF")
             source.text = f"{reference}:/fields/{name}"
-        if toughness is not None:  # an imperfect film: the same field at every step
-            attribute = ET.SubElement(grid, "Attribute", Name="toughness", AttributeType="Scalar", Center="Node")
-            item = ET.SubElement(attribute, "DataItem", Dimensions=" ".join(map(str, dims)), NumberType="Float",
-                                 Precision=str(toughness.dtype.itemsize), Format="HDF")
-            item.text = f"{reference}:/fields/toughness"
+        for name, ds in constant.items():  # a field stored once: the same at every step
+            attribute = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar", Center="Node")
+            item = ET.SubElement(attribute, "DataItem", Dimensions=_field_dims(dims, 1), NumberType="Float",
+                                 Precision=str(ds.dtype.itemsize), Format="HDF")
+            item.text = f"{reference}:/fields/{name}"
     return root
 
 
 def write_xdmf(results_path, out=None):
-    """Write the XDMF index of a plate ``results.h5`` (see the module docstring).
+    """Write the XDMF index of a ``results.h5`` (see the module docstring).
 
     Parameters
     ----------
     results_path : str or Path
-        The plate ``results.h5`` (or its run directory).
+        The ``results.h5`` of a run driven by the engine (or its run directory).
     out : str or Path, optional
         The XDMF file, or a directory to write ``<stem>.xdmf`` into; default: beside the
         HDF5 file, ``results.xdmf``.
@@ -160,10 +133,10 @@ def write_xdmf(results_path, out=None):
 
     Raises
     ------
-    thinfilm.results.ResultsError
-        Not a plate results file, or no finished step.
+    thinfilm.results.reader.ResultsError
+        Not such a results file, or no finished step.
     """
-    with PlateResults(results_path) as res:
+    with Results(results_path) as res:
         h5 = res.path
         if res.n == 0:
             raise ResultsError(f"{h5}: no finished step to index")

@@ -1,14 +1,14 @@
 """The quasi-static evolution engine: alternate minimization, backtracking, nucleation search.
 
 The engine knows nothing of grids or meshes. It drives any model that offers the small
-interface :class:`FractureModel` (the finite-difference plate of :mod:`thinfilm.plate.model` now,
-the finite-element module later):
+interface :class:`thinfilm.engine.protocol.FractureModel` (the finite-difference film of
+:mod:`thinfilm.plate.model`, a finite-element solid, a test suite's 1D bar):
 
 * at each load step ``t_i``, alternate minimization: ``u = argmin E(., alpha)`` (a linear
   solve), then ``alpha = argmin E(u, .)`` under ``alpha_{i-1} <= alpha <= 1`` (a
   bound-constrained QP, :func:`thinfilm.solvers.boxqp.solve_box_qp`), until the largest change of
   alpha is below ``tol``. Each half-step minimizes the energy exactly, so the energy never
-  increases. An over-relaxed damage update (:class:`AltMinOptions`) replaces the plain one
+  increases. An over-relaxed damage update (:class:`thinfilm.engine.options.AltMinOptions`) replaces the plain one
   only if, after the next u-solve, the energy is below that of the plain update; otherwise
   the plain update is restored, so the energy of the accepted states still decreases
   monotonically;
@@ -25,64 +25,30 @@ the finite-element module later):
   sound regions); alternate minimization restarts from each, with irreversibility against
   the previous step only (a trial crack may heal), and the lowest energy is kept.
 
-Every step is recorded (:class:`StepRecord`); a solver that fails raises
+The options of each part are declared in :mod:`thinfilm.engine.options`. Every step is
+recorded (:class:`thinfilm.engine.records.StepRecord`); a solver that fails raises
 :class:`EvolutionError` naming the step, the iteration and the residual, and the steps
 already done stay with the caller (the ``on_step`` callback has seen each of them).
 """
 
 from __future__ import annotations
 
-import math
 import time
-from dataclasses import dataclass, field
-from typing import Callable, Protocol, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
-from thinfilm.solvers.boxqp import DamageSolverError, solve_box_qp
-from thinfilm.solvers.linear import LinearSolverError
+from thinfilm.engine.options import AltMinOptions, BacktrackOptions, EngineOptions, SearchOptions, StabilityOptions
+from thinfilm.engine.protocol import DamageProjection, FractureModel, StabilityModes, TrialStates
+from thinfilm.engine.records import State, StepRecord
+from thinfilm.solvers.boxqp import solve_box_qp
+from thinfilm.solvers.errors import SolverError
+
+__all__ = ["Engine", "EvolutionError"]
 
 
 class EvolutionError(RuntimeError):
     """A load step could not be computed; the message names step, iteration and residual."""
-
-
-class FractureModel(Protocol):
-    """What the engine needs from a discretized model.
-
-    Attributes
-    ----------
-    n_alpha : int
-        Number of damage unknowns.
-    proportional : bool
-        True if the load is ``w_t = t w_1``, so that at fixed alpha the minimizer ``u``
-        scales with ``t`` and the elastic energy with ``t^2`` (backtracking needs it).
-    """
-
-    n_alpha: int
-    proportional: bool
-
-    def solve_u(self, alpha: np.ndarray, t: float, u0: np.ndarray | None, rtol: float) -> np.ndarray:
-        """Minimize the energy over u at fixed alpha (warm start ``u0``, relative tolerance)."""
-
-    def damage_problem(self, u: np.ndarray, t: float):
-        """``(A, b)`` with ``E(u, alpha) = 1/2 alpha.A.alpha - b.alpha + const(u, t)``."""
-
-    def energies(self, u: np.ndarray, alpha: np.ndarray, t: float) -> tuple[float, float]:
-        """Elastic energy ``P`` and surface energy ``S``."""
-
-    def trial_states(self, u: np.ndarray, alpha: np.ndarray, t: float) -> Sequence[np.ndarray]:
-        """Damage fields with one trial crack each, for the nucleation search."""
-
-    # Optional, for the stability check (StabilityOptions):
-    # ``stability_modes(alpha, t, lower, k) -> (lowest, modes)``, the lowest curvature of
-    # the reduced energy on the free damage nodes (units of toughness / eta) and the ``k``
-    # lowest modes, shape (k, n_alpha), the first the most unstable.
-    #
-    # Optional, for a model whose damage is restricted to a subset (symmetric fields):
-    # ``project_lower(lower) -> lower``, the least admissible bound above ``lower``, applied
-    # once per load step; ``project_alpha(alpha) -> alpha``, applied after every alpha-solve
-    # and to the start of every load step.
 
 
 #: Least cosine between consecutive updates of alpha for a phase of over-relaxation to count
@@ -98,218 +64,6 @@ def _cosine(a, b):
     return float(a @ b) / norm if norm > 0.0 else 0.0
 
 
-@dataclass(frozen=True)
-class AltMinOptions:
-    """Alternate minimization.
-
-    Attributes
-    ----------
-    tol : float
-        Convergence when ``max |alpha_new - alpha| < tol``.
-    max_iter : int
-        Iterations per load step before :class:`EvolutionError`.
-    acceleration : {"none", "overrelax"}
-        ``"overrelax"``: the growth of damage is extrapolated (see ``omega``), and so is the
-        linear settling tail of a step (see ``omega_tail``); each extrapolation is projected on
-        the bounds and kept only if the energy after the next u-solve is below that of the
-        plain update it replaces. Anderson acceleration of the same fixed-point map was
-        measured and dropped: on the Fig. 2.7 strip it took more iterations than plain
-        alternate minimization (173 against 124 in the nucleation step).
-    omega : float
-        With ``acceleration = "overrelax"``: the largest over-relaxation factor (>= 1) of the
-        damage growth, ``alpha <- alpha* + (omega_k - 1) max(alpha* - alpha, 0)`` with
-        ``alpha*`` the plain update. ``omega_k`` starts at 1 and doubles at each
-        extrapolation in a slow, steady phase, up to ``omega`` while a damage mode grows
-        through its instability and up to ``omega_front`` while a crack front crosses the
-        film (see :meth:`Engine._extrapolate`); it falls back to 1 when the phase ends, and
-        after a rejected extrapolation its cap is lowered to the last accepted factor until
-        the phase ends (1 = plain alternate minimization). The scenes' default, 4, halves
-        the iterations of the Fig. 2.7 strip's nucleation step on 300 x 60 to 600 x 120
-        grids (README); 8 saves a few more there but splits the first crack of the 1D
-        Fig. 2.5 film (800 cells, no search) in two.
-    omega_front : float
-        The cap of ``omega_k`` in a front-crossing phase (>= 1).
-    omega_tail : float
-        With ``acceleration = "overrelax"``: the cap of the factor of the tail extrapolation
-        (``Engine._extrapolate``), by which the last plain update is extended once the change
-        of alpha is below ``10 tol`` and decays geometrically (1 turns it off).
-    omega_growth : float
-        Growth factor of ``omega_k`` (> 1).
-    u_rtol_min, u_rtol_max : float
-        Linear-solver tolerance range. The u-solve of iteration k asks for a relative
-        residual ``1e-2 * change_{k-1}`` (the last change of alpha; ``tol`` before the
-        first), clipped to ``[u_rtol_min, u_rtol_max]``: loose while alpha still moves a
-        lot, tighter than ``1e-2 tol`` when it has settled, so a step that converges at its
-        first iteration has an accurate u. Direct solvers reach round-off whatever they are
-        asked; this saves CG iterations with ``linear = "amg"``.
-    damage_rtol : float
-        KKT tolerance of the damage QP.
-    """
-
-    tol: float = 1e-4
-    max_iter: int = 2000
-    acceleration: str = "none"
-    omega: float = 1.0
-    omega_front: float = 2.0
-    omega_tail: float = 8.0
-    omega_growth: float = 2.0
-    u_rtol_min: float = 1e-8
-    u_rtol_max: float = 1e-5
-    damage_rtol: float = 1e-9
-
-
-@dataclass(frozen=True)
-class BacktrackOptions:
-    """Backtracking (Alg. 3.1, ``kind = "standard"``) or deep backtracking (Alg. 3.2).
-
-    Attributes
-    ----------
-    kind : {"none", "standard", "deep"}
-    delta : float
-        Energy gain that triggers a backtrack (``delta_BT`` > 0).
-    interval : int
-        Deep: test every ``interval`` alternate-minimization iterations (``bi``).
-    direction : {1, -1}
-        Deep: scan earlier steps oldest first (+1) or newest first (-1) (``bd``).
-    scope : int
-        Deep: how many earlier steps are scanned (``bs``; 0 = all).
-    max_backtracks : int
-        Total backtracks allowed in one evolution (a guard against cycling).
-    """
-
-    kind: str = "none"
-    delta: float = 1e-6
-    interval: int = 10
-    direction: int = 1
-    scope: int = 0
-    max_backtracks: int = 200
-
-
-@dataclass(frozen=True)
-class SearchOptions:
-    """Nucleation search.
-
-    Attributes
-    ----------
-    enabled : bool
-    delta : float
-        A trial state is kept only if it lowers the total energy by more than ``delta``.
-    rounds : int
-        After a trial is accepted the search is repeated (another crack may follow), at
-        most ``rounds`` times per load step.
-    """
-
-    enabled: bool = False
-    delta: float = 1e-9
-    rounds: int = 3
-
-
-@dataclass
-class StabilityOptions:
-    """Leaving saddles: a second-order check of every converged state (:mod:`thinfilm.plate.stability`).
-
-    After a load step converges, the lowest curvatures of the reduced energy on the free
-    damage nodes are computed. If the lowest is below ``-tol`` (units of the model's
-    ``toughness / eta``), the state is a saddle: the damage is moved along the most unstable
-    mode, both ways, by the step of at most ``amplitude`` that lowers the energy most
-    (``Engine._descent_along``), alternate minimization is restarted from there, and its
-    result is kept if it lowers the energy by more than ``delta``; then the new state is
-    checked, at most ``rounds`` times per load step. The check's time counts in the step's
-    ``time_total``.
-
-    Attributes
-    ----------
-    enabled : bool
-    tol : float
-    amplitude : float
-        Largest change of alpha of the perturbation.
-    delta : float
-    rounds : int
-    modes : int
-        Eigenpairs computed (the lowest is followed; a block of a few helps LOBPCG with the
-        pairs of equal eigenvalues that symmetric states have).
-    """
-
-    enabled: bool = False
-    tol: float = 1e-3
-    amplitude: float = 0.1
-    delta: float = 1e-9
-    rounds: int = 3
-    modes: int = 4
-
-
-@dataclass
-class StepRecord:
-    """What happened at one load step (the last time it was computed).
-
-    Attributes
-    ----------
-    index : int
-        Step number (1-based; step 0 is the unloaded state).
-    t : float
-        Load.
-    elastic, surface, total : float
-        Energies of the converged state.
-    iterations : int
-        Alternate-minimization iterations (one u-solve each, skipped or not) of the accepted
-        state, including its accepted trials and rejected extrapolations.
-    u_solves, u_solves_skipped : int
-        Linear solves done, and skipped because alpha had not changed (proportional load).
-    backtracks : int
-        Backtracks that went back to this step and restarted it.
-    trials, trials_accepted : int
-        Trials tried and kept: those of the nucleation search and the restarts of the
-        stability check.
-    extrapolations_rejected : int
-        Accelerated damage updates that raised the energy and were undone (each cost one
-        u-solve).
-    lowest_curvature : float
-        With the stability check: the lowest curvature of the reduced energy at the kept
-        state, in units of ``toughness / eta`` (negative: a saddle that could not be left
-        in the rounds allowed); NaN without it.
-    saddles_left : int
-        Saddles the stability check left at this step.
-    time_u, time_alpha, time_total : float
-        Wall-clock seconds in u-solves, alpha-solves and in the whole step.
-    energy_history : list of float
-        Total energy after every half-step of alternate minimization (non-increasing).
-    """
-
-    index: int
-    t: float
-    elastic: float = math.nan
-    surface: float = math.nan
-    total: float = math.nan
-    iterations: int = 0
-    u_solves: int = 0
-    u_solves_skipped: int = 0
-    backtracks: int = 0
-    trials: int = 0
-    trials_accepted: int = 0
-    time_u: float = 0.0
-    time_alpha: float = 0.0
-    time_total: float = 0.0
-    extrapolations_rejected: int = 0
-    lowest_curvature: float = math.nan
-    saddles_left: int = 0
-    energy_history: list = field(default_factory=list)
-
-
-@dataclass
-class State:
-    """A converged state ``(u, alpha)`` at load ``t`` with its energies."""
-
-    t: float
-    u: np.ndarray
-    alpha: np.ndarray
-    elastic: float
-    surface: float
-
-    @property
-    def total(self):
-        return self.elastic + self.surface
-
-
 class _Backtrack(Exception):
     """Raised inside alternate minimization when an earlier step is beaten."""
 
@@ -318,42 +72,34 @@ class _Backtrack(Exception):
 
 
 class Engine:
-    """Quasi-static evolution of a :class:`FractureModel` over given loads.
+    """Quasi-static evolution of a :class:`thinfilm.engine.protocol.FractureModel` over given loads.
 
     Parameters
     ----------
     model : FractureModel
-    altmin : AltMinOptions, optional
-    backtrack : BacktrackOptions, optional
-    search : SearchOptions, optional
+    altmin, backtrack, search, stability : option objects of :mod:`thinfilm.engine.options`,
+        optional (their values are checked when they are made)
 
     Raises
     ------
     ValueError
-        If backtracking is asked for a load that is not proportional to ``t``.
+        If the options ask for what the model cannot do: backtracking with a load that is not
+        proportional to ``t``, the search without :class:`TrialStates`, the stability check
+        without :class:`StabilityModes`.
     """
 
-    def __init__(self, model, altmin=AltMinOptions(), backtrack=BacktrackOptions(), search=SearchOptions(),
-                 stability=StabilityOptions()):
-        if backtrack.kind not in ("none", "standard", "deep"):
-            raise ValueError(f"backtrack.kind = {backtrack.kind!r}: must be one of none, standard, deep")
+    def __init__(self, model: FractureModel, altmin=AltMinOptions(), backtrack=BacktrackOptions(),
+                 search=SearchOptions(), stability=StabilityOptions()):
         if backtrack.kind != "none" and not model.proportional:
             raise ValueError(f"backtrack.kind = {backtrack.kind!r}: backtracking needs a load proportional to t"
                              " (this load is not); use kind = \"none\"")
-        if altmin.acceleration not in ("none", "overrelax"):
-            raise ValueError(f"acceleration = {altmin.acceleration!r}: must be one of none, overrelax")
-        if not 1.0 <= altmin.omega <= 64.0:
-            raise ValueError(f"omega = {altmin.omega}: must be in [1, 64]")
-        if not altmin.omega_front >= 1.0:
-            raise ValueError(f"omega_front = {altmin.omega_front}: must be >= 1")
-        if not altmin.omega_tail >= 1.0:
-            raise ValueError(f"omega_tail = {altmin.omega_tail}: must be >= 1")
-        if not altmin.omega_growth > 1.0:
-            raise ValueError(f"omega_growth = {altmin.omega_growth}: must be > 1")
-        if stability.enabled and not callable(getattr(model, "stability_modes", None)):
+        if search.enabled and not isinstance(model, TrialStates):
+            raise ValueError("nucleation search asked for a model without trial_states")
+        if stability.enabled and not isinstance(model, StabilityModes):
             raise ValueError("stability check asked for a model without stability_modes")
         self.model, self.altmin, self.backtrack, self.search = model, altmin, backtrack, search
         self.stability = stability
+        self._projection = model if isinstance(model, DamageProjection) else None
         # u of the last solve and the alpha/t it was computed for: with a proportional load
         # and unchanged alpha the next u is a multiple of it, no solve needed.
         self._u_cache = None
@@ -362,6 +108,11 @@ class Engine:
         #: nucleation trials tried and accepted.
         self.work = {"iterations": 0, "u_solves": 0, "backtracks": 0, "trials": 0, "trials_accepted": 0,
                      "saddles_left": 0}
+
+    @classmethod
+    def from_options(cls, model: FractureModel, options: EngineOptions) -> "Engine":
+        """The engine with one :class:`thinfilm.engine.options.EngineOptions` (a scene's)."""
+        return cls(model, options.altmin, options.backtrack, options.search, options.stability)
 
     # -- the two half-steps ---------------------------------------------------------------
     def _solve_u(self, alpha, t, u0, rtol, record):
@@ -383,7 +134,7 @@ class Engine:
         A, b = self.model.damage_problem(u, t)
         try:
             result = solve_box_qp(A, b, lower, 1.0, a0=alpha, rtol=self.altmin.damage_rtol)
-        except DamageSolverError as err:
+        except SolverError as err:
             raise EvolutionError(f"step {step} (t = {t:g}), alternate-minimization iteration {iteration}:"
                                  f" damage solver failed: {err}") from err
         alpha = self._project(result.a)
@@ -395,15 +146,13 @@ class Engine:
         bounds (the orbit average of a symmetric plate model), if it has one. It must keep
         a field that is above an admissible bound (:meth:`_admissible_lower`) above it; the
         orbit average, clipped to each orbit's least value, does."""
-        project = getattr(self.model, "project_alpha", None)
-        return alpha if project is None else project(alpha)
+        return alpha if self._projection is None else self._projection.project_alpha(alpha)
 
     def _admissible_lower(self, lower):
         """The least admissible damage above ``lower`` (for a symmetric plate model, its
         orbit maximum: a bound that is not symmetric, e.g. an asymmetric initial damage,
         would otherwise let an asymmetric alpha reach the restricted u-solve)."""
-        project = getattr(self.model, "project_lower", None)
-        return lower if project is None else project(lower)
+        return lower if self._projection is None else self._projection.project_lower(lower)
 
     # -- one load step --------------------------------------------------------------------
     def alternate_minimization(self, t, alpha0, lower, u0, record, step, history=None):
@@ -442,7 +191,7 @@ class Engine:
             rtol = float(np.clip(1e-2 * change, opts.u_rtol_min, opts.u_rtol_max))
             try:
                 u_new = self._solve_u(alpha, t, u, rtol, record)
-            except LinearSolverError as err:
+            except SolverError as err:
                 raise EvolutionError(f"step {step} (t = {t:g}), alternate-minimization iteration {iteration}:"
                                      f" u-solve failed: {err}") from err
             if not np.all(np.isfinite(u_new)):
@@ -567,6 +316,7 @@ class Engine:
     def _search(self, state, lower, record, step):
         """Nucleation search from a converged state; returns the best state found."""
         best = state
+        threshold = self.search.delta * self.model.toughness
         # The u-solve cache must describe the kept state's u (solved at the damage before its
         # last alpha-solve), not the last trial's: remember it with the state it belongs to.
         best_cache = self._u_cache
@@ -574,7 +324,7 @@ class Engine:
             improved = False
             for trial_alpha in self.model.trial_states(best.u, best.alpha, best.t):
                 trial, trial_record = self._trial(best, trial_alpha, lower, record, step)
-                if trial.total < best.total - self.search.delta:
+                if trial.total < best.total - threshold:
                     best, improved, best_cache = trial, True, self._u_cache
                     record.trials_accepted += 1
                     self.work["trials_accepted"] += 1
@@ -721,9 +471,9 @@ class Engine:
             except _Backtrack as back:
                 total_backtracks += 1
                 self.work["backtracks"] += 1
-                if total_backtracks > self.backtrack.max_backtracks:
-                    raise EvolutionError(f"step {i} (t = {t:g}): more than {self.backtrack.max_backtracks}"
-                                         " backtracks; raise backtrack.max_backtracks or delta") from None
+                if total_backtracks > self.backtrack.limit:
+                    raise EvolutionError(f"step {i} (t = {t:g}): more than {self.backtrack.limit}"
+                                         " backtracks; raise solver.backtrack_limit or backtrack_delta") from None
                 k = back.k
                 backtracks_into[k] = backtracks_into.get(k, 0) + 1
                 progress(k - i)

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from onedim.evolution import Evolution  # noqa: E402
-from thinfilm.results import PlateResults  # noqa: E402
+from thinfilm.plate.results import PlateResults  # noqa: E402
 
 
 def exact_counterpart(x0, x1, lam, toughness, t, cells=2000):

@@ -11,16 +11,10 @@ Values of ``u`` on clamped nodes are ignored (taken as 0).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import scipy.sparse as sp
 
 from thinfilm.plate.kernels import stencil as kernels
-from thinfilm.plate.operators import _nodal
-
-if TYPE_CHECKING:  # pragma: no cover
-    from thinfilm.plate.operators import DamageOperator, PlateOperator
 
 __all__ = [
     "elastic_energies",
@@ -34,7 +28,7 @@ __all__ = [
 ]
 
 
-def elastic_energies(plate: "PlateOperator", u, alpha, w) -> tuple[float, float]:
+def elastic_energies(plate, u, alpha, w) -> tuple[float, float]:
     """Bending and foundation energies ``(1/2 Int g W(D^2 u), winkler/2 Int (u - w)^2)``.
 
     Parameters
@@ -48,8 +42,8 @@ def elastic_energies(plate: "PlateOperator", u, alpha, w) -> tuple[float, float]
     bending, foundation : float
     """
     grid = plate.grid
-    u = _nodal(grid, "u", u)
-    w = _nodal(grid, "w", w)
+    u = grid.nodal("u", u)
+    w = grid.nodal("w", w)
     g = plate.degradation(alpha)
     bending, foundation = kernels.plate_energy(
         u, g, w, grid.nx, grid.ny, grid.hx, grid.hy, plate.nu, plate.winkler, plate.clamped_flags
@@ -57,13 +51,13 @@ def elastic_energies(plate: "PlateOperator", u, alpha, w) -> tuple[float, float]
     return float(bending), float(foundation)
 
 
-def elastic_energy(plate: "PlateOperator", u, alpha, w) -> float:
+def elastic_energy(plate, u, alpha, w) -> float:
     """Elastic energy ``P_h(u, alpha, w)`` = bending + foundation (see :func:`elastic_energies`)."""
     bending, foundation = elastic_energies(plate, u, alpha, w)
     return bending + foundation
 
 
-def bending_density(plate: "PlateOperator", u) -> np.ndarray:
+def bending_density(plate, u) -> np.ndarray:
     """Lumped undamaged bending energy ``e`` at the nodes, shape ``(n_nodes,)``.
 
     ``e_n = omega_n Q_n + 1/4 sum_{cells c around n} hx hy 2 (1 - nu) d_c^2`` (weights included,
@@ -71,13 +65,13 @@ def bending_density(plate: "PlateOperator", u) -> np.ndarray:
     ``1/2 sum_n g(alpha_n) e_n``. This is the diagonal of the alpha-problem.
     """
     grid = plate.grid
-    u = _nodal(grid, "u", u)
+    u = grid.nodal("u", u)
     e = np.empty(grid.n_nodes, dtype=np.float64)
     kernels.bending_density(u, grid.nx, grid.ny, grid.hx, grid.hy, plate.nu, plate.clamped_flags, e)
     return e
 
 
-def surface_energy(damage: "DamageOperator", alpha) -> float:
+def surface_energy(damage, alpha) -> float:
     """Ambrosio-Tortorelli surface energy ``S_h(alpha)``.
 
     ``toughness/(4 c_m) Int( alpha^m / eta + eta |grad alpha|^2 )``, ``m = at``, with the
@@ -86,7 +80,7 @@ def surface_energy(damage: "DamageOperator", alpha) -> float:
     local term takes its factor and each edge's gradient term the mean of its nodes'.
     """
     grid = damage.grid
-    alpha = _nodal(grid, "alpha", alpha)
+    alpha = grid.nodal("alpha", alpha)
     if damage.toughness_factor is None:
         return float(
             kernels.surface_energy(alpha, grid.nx, grid.ny, grid.hx, grid.hy, damage.eta, damage.toughness, damage.at)
@@ -95,12 +89,12 @@ def surface_energy(damage: "DamageOperator", alpha) -> float:
     return float(damage.surface_density(alpha).sum())
 
 
-def total_energy(plate: "PlateOperator", damage: "DamageOperator", u, alpha, w) -> float:
+def total_energy(plate, damage, u, alpha, w) -> float:
     """``E_h(u, alpha) = P_h(u, alpha, w) + S_h(alpha)``."""
     return elastic_energy(plate, u, alpha, w) + surface_energy(damage, alpha)
 
 
-def nodal_energy(plate: "PlateOperator", damage: "DamageOperator", u, alpha, w) -> np.ndarray:
+def nodal_energy(plate, damage, u, alpha, w) -> np.ndarray:
     """The total energy ``E_h(u, alpha)`` split over the nodes, shape ``(n_nodes,)``.
 
     Node ``n`` takes ``1/2 g_n e_n`` (its lumped bending energy, twist shared by the four
@@ -120,15 +114,15 @@ def nodal_energy(plate: "PlateOperator", damage: "DamageOperator", u, alpha, w) 
         Displacement, damage and substrate displacement ``w_t`` at the nodes.
     """
     grid = plate.grid
-    u = np.array(_nodal(grid, "u", u))
+    u = np.array(grid.nodal("u", u))
     u[plate.clamped_nodes] = 0.0  # the energy ignores stored values there
-    alpha = _nodal(grid, "alpha", alpha)
-    w = _nodal(grid, "w", w)
+    alpha = grid.nodal("alpha", alpha)
+    w = grid.nodal("w", w)
     foundation = 0.5 * plate.winkler * grid.weights * (u - w) ** 2
     return 0.5 * plate.degradation(alpha) * bending_density(plate, u) + foundation + damage.surface_density(alpha)
 
 
-def damage_problem(plate: "PlateOperator", damage: "DamageOperator", u) -> tuple[sp.csr_matrix, np.ndarray]:
+def damage_problem(plate, damage, u) -> tuple[sp.csr_matrix, np.ndarray]:
     """The alpha-problem at fixed ``u``: ``(A, b)`` with
     ``E_h(u, alpha) = 1/2 alpha.A.alpha - b.alpha + const`` for every ``alpha``.
 
@@ -146,7 +140,7 @@ def damage_problem(plate: "PlateOperator", damage: "DamageOperator", u) -> tuple
     return damage.problem(bending_density(plate, u))
 
 
-def damage_problem_constant(plate: "PlateOperator", u, w) -> float:
+def damage_problem_constant(plate, u, w) -> float:
     """The ``const`` of :func:`damage_problem`: ``1/2 (1 + k_res) sum_n e_n`` + foundation."""
     grid = plate.grid
     e = bending_density(plate, u)

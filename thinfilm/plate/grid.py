@@ -175,6 +175,29 @@ class Grid:
             raise ValueError(f"Grid.field: shape {a.shape} is neither {self.shape} nor ({self.n_nodes},)")
         return np.array(a.ravel(), dtype=np.float64, order="C")
 
+    def nodal(self, name: str, values) -> np.ndarray:
+        """A flat nodal field as a C-contiguous float64 array of length ``n_nodes``, without a
+        copy if it is one already (the operators' inputs: ``u``, ``alpha``, ``w``...).
+
+        Raises
+        ------
+        ValueError
+            Naming ``name`` if the shape is not ``(n_nodes,)``.
+        """
+        a = np.ascontiguousarray(values, dtype=np.float64)
+        if a.shape != (self.n_nodes,):
+            raise ValueError(f"{name} has shape {a.shape}, expected ({self.n_nodes},) (flat nodal field)")
+        return a
+
+    def description(self):
+        """The grid as results files, XDMF and plots see it
+        (:class:`thinfilm.discretization.StructuredGrid`)."""
+        from thinfilm.discretization import StructuredGrid
+
+        if self.ny == 0:
+            return StructuredGrid(np.asarray(self.x), None, (self.x0, self.x1))
+        return StructuredGrid(np.asarray(self.x), np.asarray(self.y), (self.x0, self.x1), (self.y0, self.y1))
+
     def evaluate(self, function) -> np.ndarray:
         """Sample ``function(x)`` (1D) or ``function(x, y)`` (2D) at the nodes, flat."""
         return self.field(np.broadcast_to(function(*self.coordinates), (self.n_nodes,)))

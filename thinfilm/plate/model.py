@@ -1,7 +1,7 @@
 """The finite-difference thin-film model as seen by the evolution engine.
 
 :class:`PlateModel` binds a grid, the plate + Winkler operator, the damage operator, a load
-``t -> w_t`` and a linear solver into the :class:`thinfilm.engine.evolution.FractureModel`
+``t -> w_t`` and a linear solver into the :class:`thinfilm.engine.protocol.FractureModel`
 interface: ``solve_u``, ``damage_problem``, ``energies``, ``trial_states`` (the trial
 cracks of the nucleation search) and ``stability_modes`` (the stability check).
 """
@@ -89,6 +89,7 @@ class PlateModel:
         self.proportional = bool(proportional)
         self.linear_solver = linear_solver
         self.n_alpha = grid.n_nodes
+        self.toughness = float(toughness)  # G/a: the search's threshold is relative to it
         self.trial_radius = float(trial_radius)
         self.sound_threshold = float(sound_threshold)
         self.symmetry = symmetry

@@ -87,9 +87,10 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from thinfilm.plate.grid import Grid
+from thinfilm.plate import energy
 from thinfilm.plate.kernels import stencil as kernels
 
-__all__ = ["PlateOperator", "DamageOperator", "degradation", "c_m"]
+__all__ = ["PlateOperator", "DamageOperator", "degradation", "c_m", "near_nullspace"]
 
 
 def c_m(at: int) -> float:
@@ -118,12 +119,31 @@ def _finite_scalar(name: str, value, low: float, high: float, low_open: bool, hi
     return v
 
 
-def _nodal(grid: Grid, name: str, values) -> np.ndarray:
-    """A nodal field as a C-contiguous float64 array of length ``n_nodes`` (no copy if it is one)."""
-    a = np.ascontiguousarray(values, dtype=np.float64)
-    if a.shape != (grid.n_nodes,):
-        raise ValueError(f"{name} has shape {a.shape}, expected ({grid.n_nodes},) (flat nodal field)")
-    return a
+def near_nullspace(coords):
+    """Rigid modes of the free plate, ``B = [1, x, y]`` (a beam in 1D: ``[1, x]``): the null
+    space of the bending energy without foundation, which the AMG solver needs to be told
+    (:class:`thinfilm.solvers.linear.AMGSolver`; ``docs/solvers.md``).
+
+    Parameters
+    ----------
+    coords : ndarray, shape (n, d) or (n,), d = 1 or 2
+        Node coordinates (any length unit).
+
+    Returns
+    -------
+    B : ndarray, shape (n, 1 + d)
+        Columns 1, (x - mean x)/L, ... with L the largest extent (the scaling keeps the
+        columns of comparable size for the aggregation's local QR).
+    """
+    coords = np.asarray(coords, dtype=np.float64)
+    if coords.ndim == 1:
+        coords = coords[:, None]
+    if coords.ndim != 2 or coords.shape[1] not in (1, 2):
+        raise ValueError(f"coords must have shape (n, 2) or (n, 1), got {coords.shape}")
+    c = coords - coords.mean(axis=0)
+    L = float(np.ptp(coords, axis=0).max()) or 1.0
+    return np.column_stack([np.ones(len(c)), c / L])
+
 
 
 class PlateOperator:
@@ -205,7 +225,7 @@ class PlateOperator:
 
     def degradation(self, alpha) -> np.ndarray:
         """Nodal ``g(alpha) = (1 - alpha)^2 + k_res``, shape ``(n_nodes,)``."""
-        return degradation(_nodal(self.grid, "alpha", alpha), self.k_res)
+        return degradation(self.grid.nodal("alpha", alpha), self.k_res)
 
     # --- the linear system ------------------------------------------------------------
     def matrix(self, alpha) -> sp.csr_matrix:
@@ -251,11 +271,11 @@ class PlateOperator:
         degradation, so with ``g = g'(alpha) * dalpha`` this is the derivative of ``K(alpha) u``
         along ``dalpha`` (:mod:`thinfilm.plate.stability`).
         """
-        return self._apply_g(_nodal(self.grid, "g", g), u, 0.0, None)
+        return self._apply_g(self.grid.nodal("g", g), u, 0.0, None)
 
     def _apply_g(self, g, u, winkler, out):
         """``(sum_n g_n M_n + winkler diag(omega)) u`` for a nodal ``g``, into ``out`` (or a new array)."""
-        u = _nodal(self.grid, "u", u)
+        u = self.grid.nodal("u", u)
         if out is None:
             out = np.empty(self.grid.n_nodes, dtype=np.float64)
         if self._work is None:
@@ -297,11 +317,11 @@ class PlateOperator:
         w : ndarray, shape (n_nodes,)
             Substrate displacement ``w_t`` at the nodes.
         """
-        return self.winkler * self._weights_free * _nodal(self.grid, "w", w)
+        return self.winkler * self._weights_free * self.grid.nodal("w", w)
 
     def constrain(self, u) -> np.ndarray:
         """A copy of ``u`` with the clamped nodes set to 0 (the admissible field it stands for)."""
-        u = np.array(_nodal(self.grid, "u", u))
+        u = np.array(self.grid.nodal("u", u))
         u[self.clamped_nodes] = 0.0
         return u
 
@@ -309,14 +329,10 @@ class PlateOperator:
     def elastic_energy(self, u, alpha, w) -> float:
         """Elastic energy ``P_h(u, alpha, w)`` = bending + foundation; see
         :func:`thinfilm.plate.energy.elastic_energy`."""
-        from thinfilm.plate import energy
-
         return energy.elastic_energy(self, u, alpha, w)
 
     def bending_density(self, u) -> np.ndarray:
         """Lumped undamaged bending energy ``e``; see :func:`thinfilm.plate.energy.bending_density`."""
-        from thinfilm.plate import energy
-
         return energy.bending_density(self, u)
 
 
@@ -355,7 +371,7 @@ class DamageOperator:
         self.cs = self.toughness / (4.0 * c_m(self.at))
 
         if toughness_factor is not None:
-            toughness_factor = _nodal(grid, "toughness_factor", toughness_factor)
+            toughness_factor = grid.nodal("toughness_factor", toughness_factor)
             if not (np.all(np.isfinite(toughness_factor)) and np.all(toughness_factor > 0)):
                 raise ValueError("toughness_factor must be finite and > 0 at every node")
         self.toughness_factor = toughness_factor
@@ -407,14 +423,12 @@ class DamageOperator:
         Uses the operator's own ``L_G`` and weights, not copies: it runs at every
         alternate-minimization iteration of an imperfect film.
         """
-        alpha = _nodal(self.grid, "alpha", alpha)
+        alpha = self.grid.nodal("alpha", alpha)
         return self.cs * (self._local_weights * alpha**self.at / self.eta
                           + self.eta * alpha * (self._surface_laplacian @ alpha))
 
     def surface_energy(self, alpha) -> float:
         """Surface energy ``S_h(alpha)``; see :func:`thinfilm.plate.energy.surface_energy`."""
-        from thinfilm.plate import energy
-
         return energy.surface_energy(self, alpha)
 
     def problem(self, e) -> tuple[sp.csr_matrix, np.ndarray]:
@@ -433,7 +447,7 @@ class DamageOperator:
             the next call.
         b : ndarray, shape (n_nodes,)
         """
-        e = _nodal(self.grid, "e", e)
+        e = self.grid.nodal("e", e)
         self._A.data[self._diag_pos] = self._diag_fixed + e
         return self._A, e - self._linear
 

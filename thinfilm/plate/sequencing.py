@@ -22,7 +22,7 @@ import h5py
 import numpy as np
 from scipy.interpolate import RegularGridInterpolator
 
-from thinfilm.io import finished_steps
+from thinfilm.results.reader import finished_steps
 
 #: Two loads are the same step when they differ by less than this (relative to max(1, |t|)).
 T_MATCH = 1e-9

@@ -63,9 +63,9 @@ everywhere.
 
 Kernels
 -------
-The Numba kernels are at the end of this module, with NumPy references (``*_reference``)
-that the tests compare them with. (DESIGN.md puts kernels in ``thinfilm.kernels``; they
-can move there unchanged.)
+The Numba kernels are in :mod:`thinfilm.solvers.kernels`, with NumPy references
+(``*_reference``) that the tests compare them with, and with :func:`kkt_violation`, the
+NumPy definition of the KKT measure that they implement node by node.
 """
 
 from __future__ import annotations
@@ -74,12 +74,13 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable, Optional, Union
 
-import numba
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from thinfilm.solvers import kernels as kernels
+from thinfilm.solvers import kernels
+from thinfilm.solvers.kernels import kkt_violation
+from thinfilm.solvers.errors import SolverError
 
 __all__ = [
     "BoxQPResult",
@@ -123,7 +124,7 @@ _LINEAR_TOL_FRACTION = 0.25
 _FORCING = 0.01
 
 
-class DamageSolverError(RuntimeError):
+class DamageSolverError(SolverError):
     """The damage solver did not reach the requested KKT tolerance.
 
     Attributes
@@ -224,32 +225,6 @@ def box_qp_energy(A, b: np.ndarray, a: np.ndarray) -> float:
     """
     a = np.asarray(a, dtype=np.float64)
     return float(0.5 * (a @ (A @ a)) - np.asarray(b, dtype=np.float64) @ a)
-
-
-def kkt_violation(r: np.ndarray, a: np.ndarray, lower, upper) -> np.ndarray:
-    """Per-node violation ``v`` of the KKT conditions, unscaled (module docstring).
-
-    Parameters
-    ----------
-    r : ndarray, shape (n,)
-        Residual ``A a - b`` (the gradient of the energy).
-    a : ndarray, shape (n,)
-        A feasible point.
-    lower, upper : float or ndarray, shape (n,)
-        Bounds.
-
-    Returns
-    -------
-    ndarray, shape (n,)
-        ``v_i >= 0``; zero where node ``i`` satisfies its KKT condition exactly.
-    """
-    r, a = np.asarray(r, dtype=np.float64), np.asarray(a, dtype=np.float64)
-    lower = np.broadcast_to(np.asarray(lower, dtype=np.float64), a.shape)
-    upper = np.broadcast_to(np.asarray(upper, dtype=np.float64), a.shape)
-    v = np.abs(r)
-    v = np.where(a == lower, np.maximum(-r, 0.0), v)
-    v = np.where(a == upper, np.maximum(r, 0.0), v)
-    return np.where(lower == upper, 0.0, v)
 
 
 def kkt_residual(A, b: np.ndarray, a: np.ndarray, lower, upper) -> float:

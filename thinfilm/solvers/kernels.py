@@ -6,11 +6,36 @@ NumPy expression has its NumPy reference here too (``*_reference``); the tests c
 
 import numba
 import numpy as np
-import scipy.sparse as sp
 
 # Node status codes, shared with thinfilm.solvers.boxqp: free, on the lower bound, on the upper
 # bound, predicted to go to the lower bound, predicted to go to the upper bound.
 _FREE, _AT_LOWER, _AT_UPPER, _TO_LOWER, _TO_UPPER = 0, 1, 2, 3, 4
+
+
+def kkt_violation(r: np.ndarray, a: np.ndarray, lower, upper) -> np.ndarray:
+    """Per-node violation ``v`` of the KKT conditions, unscaled (see :mod:`thinfilm.solvers.boxqp`).
+
+    Parameters
+    ----------
+    r : ndarray, shape (n,)
+        Residual ``A a - b`` (the gradient of the energy).
+    a : ndarray, shape (n,)
+        A feasible point.
+    lower, upper : float or ndarray, shape (n,)
+        Bounds.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``v_i >= 0``; zero where node ``i`` satisfies its KKT condition exactly.
+    """
+    r, a = np.asarray(r, dtype=np.float64), np.asarray(a, dtype=np.float64)
+    lower = np.broadcast_to(np.asarray(lower, dtype=np.float64), a.shape)
+    upper = np.broadcast_to(np.asarray(upper, dtype=np.float64), a.shape)
+    v = np.abs(r)
+    v = np.where(a == lower, np.maximum(-r, 0.0), v)
+    v = np.where(a == upper, np.maximum(r, 0.0), v)
+    return np.where(lower == upper, 0.0, v)
 
 
 @numba.njit(cache=True, inline="always")
@@ -64,8 +89,6 @@ def _predict_nodes(nodes, a, r, lower, upper, dinv, status, z, dz, violation):
 
 def _predict_reference(a, r, lower, upper, dinv):
     """NumPy reference of :func:`_predict_all`: ``(status, z, dz, violation)``."""
-    from thinfilm.solvers.boxqp import kkt_violation  # the solver's definition (imports this module)
-
     violation = kkt_violation(r, a, lower, upper) * dinv
     target = a - r * dinv
     to_lower, to_upper = target <= lower, (target >= upper) & ~(target <= lower)

@@ -8,7 +8,7 @@ solve only redoes what the new values require.
 
 Protocol (what the evolution engine relies on)::
 
-    solver = make_solver(kind, pattern, coords=coords, **options)   # once per pattern
+    solver = make_solver(kind, pattern, near_nullspace=B, **options)   # once per pattern
     solver.update(K)                        # new values, same pattern (CSR)
     u, info = solver.solve(f, x0=u_prev, rtol=1e-8)
     u, info = solver(K, f, x0=u_prev)       # the same as update + solve: a plain function
@@ -24,7 +24,7 @@ Kinds
     factorization-preconditioned CG if round-off left it above ``rtol``.
 ``"amg"``
     Conjugate gradients preconditioned by one symmetric V-cycle of pyamg smoothed aggregation
-    with the plate's near-nullspace ``B = [1, x, y]``. The hierarchy is kept across updates;
+    with the near-nullspace ``B`` the model gives (the free plate's ``[1, x, y]``). The hierarchy is kept across updates;
     only the finest level takes the new values (so smoothing and fine residuals are exact and
     the coarse levels are stale). The hierarchy is rebuilt when the convergence rate (CG
     iterations per decade of residual reduction) degrades past ``rebuild_factor`` times the
@@ -37,8 +37,8 @@ Kinds
 Every solve returns an :class:`SolveInfo`; a solve that does not reach its tolerance, or that
 produces a non-finite value, raises :class:`LinearSolverError`.
 
-:func:`plate_test_matrix` and :func:`crack_bands` build a plate-like test system for tests and
-benchmarks only; the model's operator lives in :mod:`thinfilm.plate.operators`.
+The solvers know nothing of the model: the matrix comes from its operator, and its
+near-nullspace from the model (:func:`thinfilm.plate.operators.near_nullspace` for the film).
 """
 
 from __future__ import annotations
@@ -52,6 +52,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from thinfilm.solvers.errors import SolverError
+
 __all__ = [
     "LinearSolverError",
     "SolveInfo",
@@ -59,8 +61,6 @@ __all__ = [
     "AMGSolver",
     "make_solver",
     "pardiso_available",
-    "plate_test_matrix",
-    "crack_bands",
     "AUTO_AMG_MIN_UNKNOWNS",
     "KINDS",
 ]
@@ -80,7 +80,7 @@ AUTO_AMG_MIN_UNKNOWNS_SUPERLU = 400 * 400
 DEFAULT_RTOL = 1e-8
 
 
-class LinearSolverError(RuntimeError):
+class LinearSolverError(SolverError):
     """A linear solve failed: no convergence, a breakdown, or a non-finite value.
 
     Attributes
@@ -550,30 +550,6 @@ AMG_DEFAULTS = dict(
 )
 
 
-def near_nullspace(coords):
-    """Rigid modes of the free plate, ``B = [1, x, y]`` (a beam in 1D: ``[1, x]``).
-
-    Parameters
-    ----------
-    coords : ndarray, shape (n, d) or (n,), d = 1 or 2
-        Node coordinates (any length unit).
-
-    Returns
-    -------
-    B : ndarray, shape (n, 1 + d)
-        Columns 1, (x - mean x)/L, ... with L the largest extent (the scaling keeps the
-        columns of comparable size for the aggregation's local QR).
-    """
-    coords = np.asarray(coords, dtype=np.float64)
-    if coords.ndim == 1:
-        coords = coords[:, None]
-    if coords.ndim != 2 or coords.shape[1] not in (1, 2):
-        raise ValueError(f"coords must have shape (n, 2) or (n, 1), got {coords.shape}")
-    c = coords - coords.mean(axis=0)
-    L = float(np.ptp(coords, axis=0).max()) or 1.0
-    return np.column_stack([np.ones(len(c)), c / L])
-
-
 class AMGSolver(_LinearSolver):
     """CG preconditioned by a kept smoothed-aggregation V-cycle.
 
@@ -581,9 +557,10 @@ class AMGSolver(_LinearSolver):
     ----------
     pattern : scipy.sparse matrix, shape (n, n)
         Any matrix with the fixed sparsity pattern.
-    coords : ndarray, shape (n, 2) (or (n, 1) for a 1D grid)
-        Node coordinates, for the near-nullspace ``[1, x, y]`` (required: with the constant
-        alone SA fails on the free plate).
+    near_nullspace : ndarray, shape (n, k)
+        The operator's near-nullspace, from the model (the free plate's ``[1, x, y]``, the
+        three or six rigid-body modes of elasticity): required, since with the constant
+        alone smoothed aggregation fails on these operators.
     rtol : float
         Default relative residual tolerance ``||f - K u|| <= rtol ||f||``.
     maxiter : int
@@ -603,18 +580,17 @@ class AMGSolver(_LinearSolver):
 
     kind = "amg"
 
-    def __init__(self, pattern, *, coords=None, rtol=DEFAULT_RTOL, maxiter=500,
+    def __init__(self, pattern, *, near_nullspace=None, rtol=DEFAULT_RTOL, maxiter=500,
                  rebuild_factor=2.0, min_rebuild_iterations=10, **amg_options):
         import pyamg  # noqa: F401  (fail early if missing)
 
         self.pattern = _Pattern(pattern)
         self.n = self.pattern.n
-        if coords is None:
-            raise ValueError("coords (shape (n, 2)) is required by kind='amg' for the "
-                             "near-nullspace [1, x, y]")
-        self.B = near_nullspace(coords)
-        if self.B.shape[0] != self.n:
-            raise ValueError(f"coords has {self.B.shape[0]} rows, the pattern n = {self.n}")
+        if near_nullspace is None:
+            raise ValueError("near_nullspace (shape (n, k)) is required by kind='amg': the model's"
+                             " near-nullspace, e.g. the free plate's [1, x, y]")
+        self.B = np.ascontiguousarray(np.asarray(near_nullspace, dtype=np.float64).reshape(self.n, -1))
+
         unknown = set(amg_options) - set(AMG_DEFAULTS) - {"aggregate", "improve_candidates"}
         if unknown:
             raise ValueError(f"unknown AMG options {sorted(unknown)}; allowed: "
@@ -795,19 +771,19 @@ class AMGSolver(_LinearSolver):
 # --------------------------------------------------------------------------------------------
 
 
-def make_solver(kind, pattern, *, coords=None, **options):
+def make_solver(kind, pattern, *, near_nullspace=None, **options):
     """Make a u-problem solver for one sparsity pattern.
 
     Parameters
     ----------
     kind : {"auto", "direct", "amg"}
         ``"auto"`` picks ``"amg"`` above :data:`AUTO_AMG_MIN_UNKNOWNS` unknowns (the lower
-        SuperLU crossover if PARDISO is not installed) when ``coords`` are given, else
-        ``"direct"``.
+        SuperLU crossover if PARDISO is not installed) when a ``near_nullspace`` is given,
+        else ``"direct"``.
     pattern : scipy.sparse matrix, shape (n, n)
         A matrix with the fixed sparsity pattern (its values are not used).
-    coords : ndarray, shape (n, 2), optional
-        Node coordinates; required for ``"amg"``.
+    near_nullspace : ndarray, shape (n, k), optional
+        The model's near-nullspace; required for ``"amg"``.
     **options
         Passed to :class:`DirectSolver` (``backend``, ``rtol``, ``max_refine``) or
         :class:`AMGSolver` (``rtol``, ``maxiter``, ``rebuild_factor``,
@@ -822,7 +798,7 @@ def make_solver(kind, pattern, *, coords=None, **options):
     if kind == "auto":
         n = pattern.shape[0]
         limit = AUTO_AMG_MIN_UNKNOWNS if pardiso_available() else AUTO_AMG_MIN_UNKNOWNS_SUPERLU
-        kind = "amg" if (coords is not None and n >= limit) else "direct"
+        kind = "amg" if (near_nullspace is not None and n >= limit) else "direct"
     common = {k: options.pop(k) for k in ("rtol",) if k in options}
     if kind == "direct":
         allowed = {"backend", "max_refine"}
@@ -831,121 +807,4 @@ def make_solver(kind, pattern, *, coords=None, **options):
             raise ValueError(f"unknown options {sorted(bad)} for kind='direct'; "
                              f"allowed: {sorted(allowed | {'rtol'})}")
         return DirectSolver(pattern, **common, **options)
-    return AMGSolver(pattern, coords=coords, **common, **options)
-
-
-# --------------------------------------------------------------------------------------------
-# test matrices (tests and benchmarks only; the model's operator is thinfilm.plate.operators)
-# --------------------------------------------------------------------------------------------
-
-
-def _second_difference(m, h):
-    """Shape (m - 2, m): second differences at the interior nodes of an m-node line, 1/h^2."""
-    k = m - 2
-    return sp.diags([np.ones(k), -2.0 * np.ones(k), np.ones(k)], [0, 1, 2], shape=(k, m),
-                    format="csr") / h**2
-
-
-def _first_difference(m, h):
-    """Shape (m - 1, m): forward differences on the cells of an m-node line, 1/h."""
-    k = m - 1
-    return sp.diags([-np.ones(k), np.ones(k)], [0, 1], shape=(k, m), format="csr") / h
-
-
-def plate_test_matrix(alpha, *, nu=0.3, winkler=4e6, k_res=1e-6, length=1.0):
-    """Plate + Winkler stiffness on a square grid with free edges (a test system).
-
-    Energy ``1/2 Int g(alpha) W(D^2 u) + winkler/2 Int u^2`` with
-    ``W = u_xx^2 + u_yy^2 + 2 nu u_xx u_yy + 2 (1 - nu) u_xy^2``, ``g = (1 - alpha)^2 + k_res``,
-    discretized by second differences where they exist (free edges), the mixed derivative
-    on cells, and the edge-row density ``(1 - nu^2) u_tt^2`` where the normal second difference
-    is missing (SOLVER_NOTES.md). A 13-point stencil; SPD for ``winkler > 0``; without the
-    foundation its null space is exactly {1, x, y}.
-
-    Parameters
-    ----------
-    alpha : ndarray, shape (m, m) or (m*m,)
-        Damage at the nodes of an m x m grid, row-major (index ``iy * m + ix``), in [0, 1].
-    nu : float
-        Poisson ratio.
-    winkler : float
-        Foundation stiffness ``K/a^4`` (``= 4 lam^4``), in units of the plate rigidity / L^4.
-    k_res : float
-        Residual stiffness in the degradation.
-    length : float
-        Side of the square domain.
-
-    Returns
-    -------
-    K : scipy.sparse.csr_matrix, shape (m*m, m*m)
-        Scaled by the cell area ``h^2`` (energy = ``1/2 u.K u``), sorted indices.
-    """
-    alpha = np.asarray(alpha, dtype=np.float64)
-    m = int(round(math.sqrt(alpha.size)))
-    if m * m != alpha.size or m < 4:
-        raise ValueError(f"alpha must describe an m x m grid with m >= 4, got {alpha.size} nodes")
-    h = length / (m - 1)
-    g = ((1.0 - alpha) ** 2 + k_res).reshape(m, m)
-    eye = sp.identity(m, format="csr")
-    interior = eye[1:-1]
-    d2, d1 = _second_difference(m, h), _first_difference(m, h)
-    dxx = sp.kron(eye, d2, format="csr")      # rows: all iy, interior ix
-    dyy = sp.kron(d2, eye, format="csr")      # rows: interior iy, all ix
-    dxx_i = sp.kron(interior, d2, format="csr")
-    dyy_i = sp.kron(d2, interior, format="csr")
-    dxy = sp.kron(d1, d1, format="csr")       # rows: cells
-    wxx = g[:, 1:-1].copy()
-    wxx[[0, -1], :] *= 1.0 - nu**2           # y-edges: u_yy missing, M_nn = 0 eliminated
-    wyy = g[1:-1, :].copy()
-    wyy[:, [0, -1]] *= 1.0 - nu**2           # x-edges
-    g_cell = 0.25 * (g[:-1, :-1] + g[1:, :-1] + g[:-1, 1:] + g[1:, 1:])
-    cross = dxx_i.T @ sp.diags(nu * g[1:-1, 1:-1].ravel()) @ dyy_i
-    K = (dxx.T @ sp.diags(wxx.ravel()) @ dxx
-         + dyy.T @ sp.diags(wyy.ravel()) @ dyy
-         + cross + cross.T
-         + dxy.T @ sp.diags(2.0 * (1.0 - nu) * g_cell.ravel()) @ dxy
-         + sp.diags(np.full(m * m, float(winkler))))
-    K = (K * h**2).tocsr()
-    K.sort_indices()
-    return K
-
-
-def grid_coords(m, length=1.0):
-    """Node coordinates of the m x m test grid on ``(-length/2, length/2)^2``.
-
-    Returns
-    -------
-    coords : ndarray, shape (m*m, 2)
-        Columns x, y; row-major node order (``iy * m + ix``).
-    """
-    x = np.linspace(-0.5 * length, 0.5 * length, m)
-    X, Y = np.meshgrid(x, x)
-    return np.column_stack([X.ravel(), Y.ravel()])
-
-
-def crack_bands(m, *, grow=0, eta_cells=4.0):
-    """A realistic damage field on the m x m test grid of ``(-1/2, 1/2)^2``.
-
-    A through crack at x = 0.1 (cuts the plate in two), a crack from the left edge ending on
-    it (y = -0.2), a ring (centre (-0.15, 0.2), radius 0.15) and a partial diagonal crack from
-    (0.15, 0.1) whose tip advances by ``grow`` cells. alpha = 1 on a core at least one node
-    wide, with the AT1 profile ``(1 - d / 2 eta)^2`` around it, eta = ``eta_cells`` cells.
-
-    Returns
-    -------
-    alpha : ndarray, shape (m*m,)
-    """
-    h = 1.0 / (m - 1)
-    x = np.linspace(-0.5, 0.5, m)
-    X, Y = np.meshgrid(x, x)
-    eta = eta_cells * h
-    d = np.abs(X - 0.1)
-    d = np.minimum(d, np.where(X < 0.1, np.abs(Y + 0.2), np.inf))
-    d = np.minimum(d, np.abs(np.hypot(X + 0.15, Y - 0.2) - 0.15))
-    s_tip = 0.25 + grow * h
-    e = 1.0 / math.sqrt(2.0)
-    px, py = X - 0.15, Y - 0.1
-    s = np.clip((px + py) * e, 0.0, s_tip)
-    d = np.minimum(d, np.hypot(px - s * e, py - s * e))
-    d = np.maximum(d - 0.75 * h, 0.0)  # the alpha = 1 core
-    return (np.clip(1.0 - d / (2.0 * eta), 0.0, 1.0) ** 2).ravel()
+    return AMGSolver(pattern, near_nullspace=near_nullspace, **common, **options)

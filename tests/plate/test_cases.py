@@ -10,11 +10,11 @@ import pytest
 from onedim.evolution import evolve
 from thinfilm.cli import main
 from thinfilm.plate.cracks import centre_line, crack_positions
-from thinfilm.engine.evolution import AltMinOptions, Engine, StepRecord
-from thinfilm.run import build_grid, make_model, resolution_warnings
+from thinfilm.engine import AltMinOptions, Engine, StepRecord
+from thinfilm.plate.kind import build_grid, make_model, resolution_warnings
 from thinfilm.scene import load_scene, parse_scene
 
-CASES = Path(__file__).resolve().parent.parent / "cases"
+from tests.helpers import CASES  # noqa: E402
 
 
 def _events(path):
@@ -127,7 +127,7 @@ def test_over_relaxation_halves_the_nucleation_burst_of_the_fig2_7_strip(cells):
     zero = np.zeros(model.n_alpha)
     results = {}
     for acceleration in ("none", "overrelax"):
-        engine = Engine(model, AltMinOptions(acceleration=acceleration, omega=scene.solver.omega))
+        engine = Engine(model, AltMinOptions(acceleration=acceleration, omega=scene.solver.altmin.omega))
         record = StepRecord(65, 6.5)
         state = engine.alternate_minimization(6.5, zero, zero, None, record, 65)
         history = np.array(record.energy_history)

@@ -9,7 +9,7 @@ import pytest
 from thinfilm.cli import main
 from thinfilm.plate.grid import Grid
 from thinfilm.plate.loads import cantilever, field, indenter, indenter_displacement
-from thinfilm.run import resolution_warnings
+from thinfilm.plate.kind import resolution_warnings
 from thinfilm.scene import SceneError, parse_scene
 from thinfilm.plate.units import Material, toughness_from_KIC
 

@@ -5,7 +5,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import h5py
 import numpy as np
@@ -13,7 +12,7 @@ import pytest
 
 from thinfilm.cli import main
 
-ROOT = Path(__file__).resolve().parent.parent
+from tests.helpers import ROOT  # noqa: E402
 
 # A 1D film with backtracking (so resuming must restore the history the backtracking test
 # reads), small enough to run in about a second.

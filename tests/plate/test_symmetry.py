@@ -3,19 +3,18 @@ symmetric fields: the orbits, the Galerkin reduction ``P^T K P`` against an expl
 the reduced u-solve against the full one, a whole ring step against the unreduced model,
 and the scene checks that refuse a symmetry the scene does not have."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from thinfilm.engine.evolution import AltMinOptions, Engine, StepRecord
+from thinfilm.engine import AltMinOptions, Engine, StepRecord
 from thinfilm.plate.grid import Grid
-from thinfilm.run import build_grid, make_engine, make_model
+from thinfilm.plate.kind import build_grid, make_model
 from thinfilm.scene import SceneError, parse_scene
 from thinfilm.plate.symmetry import GridSymmetry
 
-CASES = Path(__file__).resolve().parent.parent / "cases"
+from tests.helpers import CASES  # noqa: E402
 
 
 def with_symmetry(name, group, **lines):
@@ -172,7 +171,7 @@ def test_search_and_backtracking_keep_the_restriction():
     text = (CASES / "fig2_5.toml").read_text().replace("cells = 800", 'cells = 200\nsymmetry = "mirror_x"')
     scene = parse_scene(text.replace("steps = 100", "steps = 40"), source="fig2_5.toml")
     model = make_model_of(scene)
-    engine = make_engine(scene, model)
+    engine = Engine.from_options(model, scene.solver)
     t = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
     _, states = engine.run(t)
     alphas = np.array([s.alpha for s in states])

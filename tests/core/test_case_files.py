@@ -4,13 +4,12 @@ variant must be the same experiment, changed only where its comment says."""
 import dataclasses
 import importlib.util
 import tomllib
-from pathlib import Path
 
 import pytest
 
 from thinfilm.scene import SceneError, load_scene, parse_scene
 
-CASES = Path(__file__).resolve().parent.parent / "cases"
+from tests.helpers import CASES  # noqa: E402
 BENCH = CASES.parent / "benchmarks" / "bench_imperfect_branching.py"
 
 

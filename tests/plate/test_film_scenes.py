@@ -2,19 +2,19 @@
 the spherical indenter. Each test checks one number that the full-resolution case also shows
 (README, "Thin-film scenes")."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from thinfilm.plate.cracks import arms
-from thinfilm.engine.evolution import AltMinOptions, Engine, StepRecord
-from thinfilm.results import PlateResults
-from thinfilm.run import build_grid, make_model, run_plate
+from thinfilm.engine import AltMinOptions, Engine, StepRecord
+from thinfilm.plate.results import PlateResults
+from thinfilm.plate.kind import build_grid, make_model
+from thinfilm.run import run
 from thinfilm.scene import load_scene, parse_scene
 from thinfilm.plate.loads import contact_radius
 
-CASES = Path(__file__).resolve().parent.parent / "cases"
+from tests.helpers import CASES  # noqa: E402
 
 
 def variant(name, **lines):
@@ -37,7 +37,7 @@ def test_cantilever_crack_spacing_scales_with_the_decay_length(tmp_path):
     # strip of the same length (crack spacing and load do not depend on the width) reproduces it.
     scene = variant("cantilever_6e6.toml", y="[-0.0125, 0.0125]", cells="[400, 10]", t_max="1.4", steps="140",
                     snapshots="[1.4]")
-    run_plate(scene, tmp_path)
+    run(scene, tmp_path)
     with PlateResults(tmp_path / "results.h5") as r:
         cracks = r.cracks()[-1]
         lam = (r.parameters["winkler"] / 4.0) ** 0.25
@@ -52,7 +52,7 @@ def test_indenter_first_ring_crack_is_at_the_contact_edge(tmp_path):
     # at which it forms, the same along the axes and the diagonal (no grid imprint).
     scene = variant("indentation.toml", cells="[160, 160]", eta="0.01", t_max="0.4", steps="8",
                     snapshots="[0.2, 0.4]")
-    run_plate(scene, tmp_path)
+    run(scene, tmp_path)
     with PlateResults(tmp_path / "results.h5") as r:
         assert list(r.parameters["snapshots"]) == [0.2, 0.4]
         counts = [len(c) for c in r.cracks()]
@@ -85,7 +85,7 @@ def test_indenter_crossing_cracks_meet_at_right_angles(tmp_path):
     # the crossing the four arms are 90 degrees apart (whatever their orientation).
     scene = variant("indentation_crossing.toml", cells="[100, 100]", t_max="0.24", steps="12",
                     snapshots="[0.24]")
-    run_plate(scene, tmp_path)
+    run(scene, tmp_path)
     with PlateResults(tmp_path / "results.h5") as r:
         alpha, x, y = r.field("alpha", r.n - 1), r.x, r.y
     directions = np.sort(arms(alpha, x, y, radius=0.02))
@@ -100,7 +100,7 @@ def test_small_indenter_breaks_the_film_first_at_the_centre_of_contact(tmp_path)
     # within r < 0.03 up to t = 0.06, so the domain is cropped further for the test.
     scene = variant("indentation_branching_G07.toml", x="[-0.1, 0.1]", y="[-0.1, 0.1]", cells="[80, 80]",
                     t_max="0.06", steps="12", snapshots="[0.06]")
-    run_plate(scene, tmp_path)
+    run(scene, tmp_path)
     with PlateResults(tmp_path / "results.h5") as r:
         peaks = [r.field("alpha", k).max() for k in range(r.n)]
         first = next(k for k, p in enumerate(peaks) if p > 0.5)

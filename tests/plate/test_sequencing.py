@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from thinfilm.plate.grid import Grid
-from thinfilm.run import run_plate
+from thinfilm.run import run
 from thinfilm.scene import SceneError, load_scene, parse_scene
 from thinfilm.plate.sequencing import CoarseDamage
 
@@ -94,7 +94,7 @@ def strip_runs(tmp_path_factory):
             text += f'coarse = "{coarse}"\n'
         scene_path = root / f"{name}.toml"
         scene_path.write_text(text)
-        run_plate(load_scene(scene_path), root / name)
+        run(load_scene(scene_path), root / name)
         with h5py.File(root / name / "results.h5", "r") as f:
             runs[name] = {key: f["steps"][key][()] for key in ("t", "total", "iterations")}
             runs[name]["alpha"] = f["fields/alpha"][-1]
@@ -112,8 +112,8 @@ def test_sequenced_strip_cracks_where_the_exact_solution_does(strip_runs):
     assert np.allclose(plain["total"][:-1], sequenced["total"][:-1], rtol=1e-9)
     grid = Grid.rectangle(-0.5, 0.5, 300, -0.1, 0.1, 60)
     centre = slice(30 * 301, 31 * 301)  # the nodes of y = 0
-    for run in (plain, sequenced):
-        cracked = np.flatnonzero(run["alpha"][centre] >= 0.9)
+    for result in (plain, sequenced):
+        cracked = np.flatnonzero(result["alpha"][centre] >= 0.9)
         groups = np.split(grid.x[cracked], np.flatnonzero(np.diff(cracked) > 1) + 1)
         positions = np.array([g.mean() for g in groups])
         assert positions.size == 9

@@ -6,7 +6,7 @@ import scipy.sparse.linalg as sla
 
 from onedim.evolution import evolve
 from onedim.partition import partition_energy
-from thinfilm.engine.evolution import AltMinOptions, BacktrackOptions, Engine, EvolutionError, SearchOptions
+from thinfilm.engine import AltMinOptions, BacktrackOptions, Engine, EvolutionError, SearchOptions
 from thinfilm.plate.grid import Grid
 from thinfilm.solvers.linear import LinearSolverError
 from thinfilm.plate.model import PlateModel
@@ -165,7 +165,7 @@ def test_fig2_5_with_search_matches_the_exact_evolution():
     t = np.linspace(0.0, 3.0, 101)
     grid, model = film(cells=800)
     engine = Engine(model, AltMinOptions(tol=1e-4), BacktrackOptions(kind="standard"),
-                    SearchOptions(enabled=True, delta=5e-5))
+                    SearchOptions(enabled=True))  # delta: 1e-3 G/a
     records, states = engine.run(t)
     found = events_of(grid, states)
     exact = evolve(0.5, 10.0, 0.05, cells=1000, t_max=3.0)

@@ -3,7 +3,6 @@
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import h5py
 import numpy as np
@@ -136,7 +135,7 @@ def test_scene_is_frozen():
         parse_scene(GOOD.replace("cells = 200", "cells = 0"))
 
 
-CASES = Path(__file__).resolve().parent.parent / "cases"
+from tests.helpers import CASES  # noqa: E402
 
 
 @pytest.mark.parametrize("name, counts, first_t", [

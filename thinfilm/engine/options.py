@@ -1,0 +1,220 @@
+"""The engine's options, each declared once with its default, units and allowed values.
+
+Four groups, one per part of the evolution (:mod:`thinfilm.engine.evolution`), and
+:class:`EngineOptions` that holds one of each. A scene sets them in its ``[solver]`` table
+under the keys :data:`SCENE_GROUPS` gives (``tol``, ``omega``, ``backtrack``,
+``backtrack_delta``, ``search``, ``search_delta``, ``stability_tol``...), read straight into
+these objects by :func:`thinfilm.scene.read_options`; every value is checked here, when the
+object is made (:func:`thinfilm.options.validate`), whoever makes it.
+
+Energies are in the model's units; ``search.delta`` is relative to the model's toughness
+(:attr:`thinfilm.engine.protocol.FractureModel.toughness`), so that one default serves every
+model.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from thinfilm.options import OptionError, Rule, option, validate
+
+__all__ = ["AltMinOptions", "BacktrackOptions", "SearchOptions", "StabilityOptions", "EngineOptions",
+           "SCENE_GROUPS"]
+
+_POSITIVE = Rule("number", minimum=0.0, exclusive=True)
+
+
+@dataclass(frozen=True)
+class AltMinOptions:
+    """Alternate minimization.
+
+    Attributes
+    ----------
+    tol : float
+        Convergence when ``max |alpha_new - alpha| < tol``.
+    max_iter : int
+        Iterations per load step before :class:`thinfilm.engine.evolution.EvolutionError`.
+    acceleration : {"none", "overrelax"}
+        ``"overrelax"``: the growth of damage is extrapolated (see ``omega``), and so is the
+        linear settling tail of a step (see ``omega_tail``); each extrapolation is projected on
+        the bounds and kept only if the energy after the next u-solve is below that of the
+        plain update it replaces. Anderson acceleration of the same fixed-point map was
+        measured and dropped: on the Fig. 2.7 strip it took more iterations than plain
+        alternate minimization (173 against 124 in the nucleation step).
+    omega : float
+        With ``acceleration = "overrelax"``: the largest over-relaxation factor (>= 1) of the
+        damage growth, ``alpha <- alpha* + (omega_k - 1) max(alpha* - alpha, 0)`` with
+        ``alpha*`` the plain update. ``omega_k`` starts at 1 and grows by ``omega_growth`` at
+        each extrapolation in a slow, steady phase, up to ``omega`` while a damage mode grows
+        through its instability and up to ``omega_front`` while a crack front crosses the
+        film (see :meth:`thinfilm.engine.evolution.Engine._extrapolate`); it falls back to 1
+        when the phase ends, and after a rejected extrapolation its cap is lowered to the last
+        accepted factor until the phase ends (1 = plain alternate minimization). The default,
+        4, halves the iterations of the Fig. 2.7 strip's nucleation step on 300 x 60 to
+        600 x 120 grids (``benchmarks/results/acceleration.md``); 8 saves a few more there but
+        splits the first crack of the 1D Fig. 2.5 film (800 cells, no search) in two.
+    omega_front : float
+        The cap of ``omega_k`` in a front-crossing phase (>= 1).
+    omega_tail : float
+        The cap of the factor of the tail extrapolation, by which the last plain update is
+        extended once the change of alpha is below ``10 tol`` and decays geometrically (1 turns
+        it off).
+    omega_growth : float
+        Growth factor of ``omega_k`` (> 1).
+    u_rtol_min, u_rtol_max : float
+        Linear-solver tolerance range. The u-solve of iteration k asks for a relative
+        residual ``1e-2 * change_{k-1}`` (the last change of alpha; ``tol`` before the
+        first), clipped to ``[u_rtol_min, u_rtol_max]``: loose while alpha still moves a
+        lot, tighter than ``1e-2 tol`` when it has settled, so a step that converges at its
+        first iteration has an accurate u. Direct solvers reach round-off whatever they are
+        asked; this saves CG iterations with an iterative solver.
+    damage_rtol : float
+        KKT tolerance of the damage QP (:func:`thinfilm.solvers.boxqp.solve_box_qp`).
+    """
+
+    tol: float = option(1e-4, "alternate minimization stops when no node's damage changes by this much",
+                        rule=_POSITIVE, units="damage")
+    max_iter: int = option(2000, "alternate-minimization iterations allowed per load step",
+                           rule=Rule("integer", minimum=1))
+    acceleration: str = option("none", "over-relaxation of the damage updates (kept only where it lowers the"
+                               " energy)", rule=Rule("choice", choices=("none", "overrelax")))
+    omega: float = option(4.0, "largest over-relaxation factor while a damage mode grows",
+                          rule=Rule("number", minimum=1.0, maximum=64.0))
+    omega_front: float = option(2.0, "largest over-relaxation factor while a crack front crosses the domain",
+                                rule=Rule("number", minimum=1.0))
+    omega_tail: float = option(8.0, "largest factor of the extrapolation of a step's geometric settling tail"
+                               " (1: off)", rule=Rule("number", minimum=1.0))
+    omega_growth: float = option(2.0, "factor by which the over-relaxation grows at each accepted extrapolation",
+                                 rule=Rule("number", minimum=1.0, exclusive=True))
+    u_rtol_min: float = option(1e-8, "tightest relative residual asked of a u-solve", rule=_POSITIVE)
+    u_rtol_max: float = option(1e-5, "loosest relative residual asked of a u-solve", rule=_POSITIVE)
+    damage_rtol: float = option(1e-9, "KKT tolerance of the damage problem", rule=_POSITIVE, units="damage")
+
+    def __post_init__(self):
+        validate(self)
+        if self.u_rtol_min > self.u_rtol_max:
+            raise OptionError("u_rtol_min", self.u_rtol_min, f"must be <= u_rtol_max = {self.u_rtol_max:g}")
+
+
+@dataclass(frozen=True)
+class BacktrackOptions:
+    """Backtracking (dissertation Alg. 3.1, ``kind = "standard"``) or deep backtracking (Alg. 3.2).
+
+    Attributes
+    ----------
+    kind : {"none", "standard", "deep"}
+    delta : float
+        Energy gain that triggers a backtrack (``delta_BT`` > 0), in the model's energy units.
+    interval : int
+        Deep: test every ``interval`` alternate-minimization iterations (``bi``).
+    direction : {1, -1}
+        Deep: scan earlier steps oldest first (+1) or newest first (-1) (``bd``).
+    scope : int
+        Deep: how many earlier steps are scanned (``bs``; 0 = all).
+    limit : int
+        Total backtracks allowed in one evolution (a guard against cycling).
+    """
+
+    kind: str = option("none", "go back to an earlier load step that the current state beats (needs a load"
+                       " proportional to t)", rule=Rule("choice", choices=("none", "standard", "deep")))
+    delta: float = option(1e-6, "energy gain that triggers a backtrack", rule=_POSITIVE, units="energy")
+    interval: int = option(10, "deep: test every this many alternate-minimization iterations",
+                           rule=Rule("integer", minimum=1))
+    direction: int = option(1, "deep: scan earlier steps oldest first (1) or newest first (-1)",
+                            rule=Rule("choice", choices=(1, -1), phrase="must be 1 (oldest first) or -1 (newest first)"))
+    scope: int = option(0, "deep: how many earlier steps are scanned (0: all)", rule=Rule("integer", minimum=0))
+    limit: int = option(200, "backtracks allowed in one evolution", rule=Rule("integer", minimum=0))
+
+    def __post_init__(self):
+        validate(self)
+
+
+@dataclass(frozen=True)
+class SearchOptions:
+    """Nucleation search.
+
+    Attributes
+    ----------
+    enabled : bool
+    delta : float
+        A trial state is kept only if it lowers the total energy by more than
+        ``delta * toughness`` (the model's toughness: the default keeps a trial that gains
+        the energy of a crack 1e-3 long).
+    rounds : int
+        After a trial is accepted the search is repeated (another crack may follow), at
+        most ``rounds`` times per load step.
+    """
+
+    enabled: bool = option(False, "after each step, try trial cracks where the film is sound and keep the lowest"
+                           " energy", rule=Rule("boolean"))
+    delta: float = option(1e-3, "energy gain a trial must bring to be kept", rule=Rule("number", minimum=0.0),
+                          units="toughness x length")
+    rounds: int = option(3, "searches per load step at most", rule=Rule("integer", minimum=1))
+
+    def __post_init__(self):
+        validate(self)
+
+
+@dataclass(frozen=True)
+class StabilityOptions:
+    """Leaving saddles: a second-order check of every converged state.
+
+    After a load step converges, the lowest curvatures of the reduced energy on the free
+    damage nodes are computed (the model's ``stability_modes``). If the lowest is below
+    ``-tol`` (units of the model's ``toughness / eta``), the state is a saddle: the damage is
+    moved along the most unstable mode, both ways, by the step of at most ``amplitude`` that
+    lowers the energy most (``Engine._descent_along``), alternate minimization is restarted
+    from there, and its result is kept if it lowers the energy by more than ``delta``; then
+    the new state is checked, at most ``rounds`` times per load step. The check's time counts
+    in the step's ``time_total``.
+
+    Attributes
+    ----------
+    enabled : bool
+    tol : float
+    amplitude : float
+        Largest change of alpha of the perturbation.
+    delta : float
+        Energy gain (model units) a restart must bring to be kept.
+    rounds : int
+    modes : int
+        Eigenpairs computed (the lowest is followed; a block of a few helps LOBPCG with the
+        pairs of equal eigenvalues that symmetric states have).
+    """
+
+    enabled: bool = option(False, "check each converged state's second-order stability and leave saddles",
+                           rule=Rule("boolean"))
+    tol: float = option(1e-3, "a lowest curvature below -tol makes a saddle", rule=_POSITIVE,
+                        units="toughness / eta")
+    amplitude: float = option(0.1, "largest change of damage along an unstable mode",
+                              rule=Rule("number", minimum=0.0, exclusive=True, maximum=1.0,
+                                        phrase="must be in (0, 1]"), units="damage")
+    delta: float = option(1e-9, "energy gain a restart must bring to be kept", rule=Rule("number", minimum=0.0),
+                          units="energy")
+    rounds: int = option(3, "saddles left per load step at most", rule=Rule("integer", minimum=1))
+    modes: int = option(4, "eigenpairs computed", rule=Rule("integer", minimum=1))
+
+    def __post_init__(self):
+        validate(self)
+
+
+@dataclass(frozen=True)
+class EngineOptions:
+    """One of each option group: everything the engine can be told."""
+
+    altmin: AltMinOptions = field(default_factory=AltMinOptions)
+    backtrack: BacktrackOptions = field(default_factory=BacktrackOptions)
+    search: SearchOptions = field(default_factory=SearchOptions)
+    stability: StabilityOptions = field(default_factory=StabilityOptions)
+
+
+#: How a scene's ``[solver]`` keys map onto the groups: ``(attribute of EngineOptions, class,
+#: key prefix, the field the bare prefix sets)``. ``backtrack = "deep"`` sets
+#: ``BacktrackOptions.kind``, ``backtrack_delta`` its ``delta``; AltMinOptions' keys have no
+#: prefix (``tol``, ``omega``...).
+SCENE_GROUPS = (
+    ("altmin", AltMinOptions, "", None),
+    ("backtrack", BacktrackOptions, "backtrack", "kind"),
+    ("search", SearchOptions, "search", "enabled"),
+    ("stability", StabilityOptions, "stability", "enabled"),
+)

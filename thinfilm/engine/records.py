@@ -1,0 +1,82 @@
+"""What the engine returns: a converged :class:`State` and the :class:`StepRecord` of each step."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["StepRecord", "State"]
+
+
+@dataclass
+class StepRecord:
+    """What happened at one load step (the last time it was computed).
+
+    Attributes
+    ----------
+    index : int
+        Step number (1-based; step 0 is the unloaded state).
+    t : float
+        Load.
+    elastic, surface, total : float
+        Energies of the converged state.
+    iterations : int
+        Alternate-minimization iterations (one u-solve each, skipped or not) of the accepted
+        state, including its accepted trials and rejected extrapolations.
+    u_solves, u_solves_skipped : int
+        Linear solves done, and skipped because alpha had not changed (proportional load).
+    backtracks : int
+        Backtracks that went back to this step and restarted it.
+    trials, trials_accepted : int
+        Trials tried and kept: those of the nucleation search and the restarts of the
+        stability check.
+    extrapolations_rejected : int
+        Accelerated damage updates that raised the energy and were undone (each cost one
+        u-solve).
+    lowest_curvature : float
+        With the stability check: the lowest curvature of the reduced energy at the kept
+        state, in units of ``toughness / eta`` (negative: a saddle that could not be left
+        in the rounds allowed); NaN without it.
+    saddles_left : int
+        Saddles the stability check left at this step.
+    time_u, time_alpha, time_total : float
+        Wall-clock seconds in u-solves, alpha-solves and in the whole step.
+    energy_history : list of float
+        Total energy after every half-step of alternate minimization (non-increasing).
+    """
+
+    index: int
+    t: float
+    elastic: float = math.nan
+    surface: float = math.nan
+    total: float = math.nan
+    iterations: int = 0
+    u_solves: int = 0
+    u_solves_skipped: int = 0
+    backtracks: int = 0
+    trials: int = 0
+    trials_accepted: int = 0
+    time_u: float = 0.0
+    time_alpha: float = 0.0
+    time_total: float = 0.0
+    extrapolations_rejected: int = 0
+    lowest_curvature: float = math.nan
+    saddles_left: int = 0
+    energy_history: list = field(default_factory=list)
+
+
+@dataclass
+class State:
+    """A converged state ``(u, alpha)`` at load ``t`` with its energies."""
+
+    t: float
+    u: np.ndarray
+    alpha: np.ndarray
+    elastic: float
+    surface: float
+
+    @property
+    def total(self):
+        return self.elastic + self.surface

@@ -1,0 +1,55 @@
+"""The exact 1D film as a model kind (``kind = "exact1d"``).
+
+:data:`KIND` is what :mod:`thinfilm.kinds` finds. Its runs are not driven by the engine: the
+global-minimizer evolution of :mod:`onedim` is computed in one go
+(:mod:`thinfilm.exact1d.evolution`) and written whole (:mod:`thinfilm.exact1d.results`), so
+there is nothing to resume.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from thinfilm.exact1d import scene as exact_scene
+
+__all__ = ["KIND", "Exact1DKind"]
+
+
+class Exact1DKind:
+    """``kind = "exact1d"``: the exact evolution of a film under pure bending."""
+
+    name = "exact1d"
+    resumable = False
+    required_datasets = ()
+
+    def parse(self, source, data, text):
+        return exact_scene.parse(source, data, text)
+
+    def run(self, scene, outdir, progress=lambda n: None, resume=False):
+        """Compute both tracks, write ``results.h5``, ``summary.json`` and the two figures."""
+        from thinfilm.exact1d.evolution import run_exact1d
+        from thinfilm.exact1d.plots import plot_exact1d
+        from thinfilm.exact1d.results import write_exact1d
+
+        tracks = run_exact1d(scene, progress=progress)
+        results, summary = write_exact1d(Path(outdir), scene, tracks)
+        figures = plot_exact1d(results, outdir)
+        report = [f"t = {event.t:.8g}: {len(event.cracks)} crack(s) at " + ", ".join(f"{c:+.5f}" for c in event.cracks)
+                  for event in tracks["refined"].events]
+        return {"results": results, "summary": summary, "figures": figures, "report": report}
+
+    def plot(self, results, outdir=None, loads=None, animate=False):
+        """``energy.png`` and ``cracks.png`` (``loads`` and ``animate`` do not apply)."""
+        from thinfilm.exact1d.plots import plot_exact1d
+
+        return plot_exact1d(results, outdir)
+
+    def info(self, f, steps):
+        events = f["events/t"][()] if "events/t" in f else []
+        counts = f["events/crack_count"][()] if "events/crack_count" in f else [0] * len(events)
+        return ["events: " + ("; ".join(f"t = {te:.8g}: {c} crack(s)" for te, c in zip(events, counts))
+                              if len(events) else "none"),
+                "timings: not recorded for exact 1D runs"]
+
+
+KIND = Exact1DKind()

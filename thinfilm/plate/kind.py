@@ -1,0 +1,228 @@
+"""The thin film as a model kind (``kind = "plate"``): scene, model, results, figures.
+
+:data:`KIND` is what :mod:`thinfilm.kinds` finds. It reads ``kind = "plate"`` scenes
+(:mod:`thinfilm.plate.scene`), builds the :class:`thinfilm.plate.model.PlateModel` on its grid
+with its load, symmetry, imperfection and linear solver, and adds to what every run writes the
+film's readings: the crack events along ``y = 0`` (``summary.json``), ``cracks.png`` and the
+toughness field of an imperfect film.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from thinfilm.plate import loads, scene as plate_scene
+from thinfilm.plate.grid import Grid
+from thinfilm.plate.imperfection import toughness_factor
+from thinfilm.plate.model import PlateModel
+from thinfilm.plate.operators import near_nullspace
+from thinfilm.plate.results import PlateResults, crack_events
+from thinfilm.plate.sequencing import CoarseDamage
+from thinfilm.plate.symmetry import GridSymmetry
+from thinfilm.run import EvolutionKind, Setup
+from thinfilm.scene import SceneError
+from thinfilm.solvers.linear import make_solver
+
+__all__ = ["KIND", "PlateKind", "build_grid", "make_model", "make_symmetry", "resolution_warnings", "describe"]
+
+
+def build_grid(domain):
+    """The structured grid of a :class:`thinfilm.scene.Domain`."""
+    if domain.dim == 1:
+        return Grid.line(domain.x[0], domain.x[1], domain.cells[0])
+    return Grid.rectangle(domain.x[0], domain.x[1], domain.cells[0], domain.y[0], domain.y[1], domain.cells[1])
+
+
+def make_load(scene, grid):
+    """The scene's substrate displacement (:mod:`thinfilm.plate.loads`)."""
+    load = scene.load
+    if load.kind == "bending":
+        return loads.bending(grid)
+    if load.kind == "cantilever":
+        return loads.cantilever(grid)
+    if load.kind == "indenter":
+        return loads.indenter(grid, load.radius)
+    return loads.field(grid, load.field)
+
+
+def resolution_warnings(scene):
+    """Warnings for scenes whose regularization cannot resolve the expected pattern.
+
+    The damage band has width ``~ 4 eta``; the plate's response decays over ``1/lam`` and
+    cracks of the exact 1D solution are at least ``~ 3/lam`` apart, so ``eta lam`` well below
+    1 is needed (SOLVER_NOTES.md: ``eta lam = 0.53`` goes diffuse on the Fig. 2.7 strip, 0.26
+    resolves it). An indenter whose contact disk comes within a few decay lengths of a free
+    edge feels the edge (and would better be run on a larger domain).
+    """
+    m, dom = scene.model, scene.domain
+    out = []
+    if m.eta * m.lam > 0.4:
+        out.append(f"eta * lam = {m.eta * m.lam:.2f} > 0.4: the regularization length is not small against the"
+                   f" decay length 1/lam = {1 / m.lam:.4g}; damage may go diffuse and cracks merge")
+    if m.eta < 2.0 * dom.dx:
+        out.append(f"eta = {m.eta:.4g} is less than 2 grid cells (dx = {dom.dx:.4g}): the damage"
+                   " profile is not resolved and the crack energy is overestimated")
+    if scene.load.kind == "indenter":
+        t = scene.load.t_max
+        contact = scene.load.radius * math.sqrt(t * (2.0 - t))
+        edges = [abs(v) for v in dom.x] + ([abs(v) for v in dom.y] if dom.y else [])
+        gap = min(edges) - contact
+        if gap < 3.0 / m.lam:
+            out.append(f"the contact radius reaches {contact:.4g} at t = {t:g}, {gap:.4g} from a free edge: less than"
+                       f" 3 decay lengths (3/lam = {3 / m.lam:.4g}); the edge changes the cracks")
+    return out
+
+
+def describe(scene):
+    """Lines for the run log: the non-dimensional groups, the decay length, the grid."""
+    m, dom = scene.model, scene.domain
+    lines = []
+    if scene.material is not None:
+        mat = scene.material
+        g = mat.groups()
+        lines.append(f"material: E = {mat.E:.4g} Pa, nu = {mat.nu:g}, h = {mat.h:.4g} m, Gc = {mat.Gc:.4g} J/m^2,"
+                     f" K_b = {mat.bond_stiffness:.4g} Pa/m, L = {mat.L:.4g} m")
+        lines.append(f"groups (2.13): K~ = {g['K_tilde']:.4g}, G~ = {g['G_tilde']:.4g}, a = h/L = {g['a']:.4g}"
+                     f" -> winkler = K~/a^4 = {g['winkler']:.4g}, toughness = G~/a = {g['toughness']:.4g}")
+    lines.append(f"decay length 1/lam = {1 / m.lam:.4g} (lam = {m.lam:.4g}, winkler = {m.winkler:.4g});"
+                 f" eta = {m.eta:.4g} = {m.eta / dom.dx:.3g} dx; eta * lam = {m.eta * m.lam:.3g}")
+    if m.toughness_noise > 0:
+        lines.append(f"imperfect film: toughness G/a = {m.toughness:g} exp({m.toughness_noise:g} xi), xi Gaussian with"
+                     f" correlation length {m.toughness_noise_length:.4g} ({m.toughness_noise_length / dom.dx:.3g} dx),"
+                     f" seed {m.toughness_noise_seed}")
+    return lines
+
+
+def make_model(scene, grid):
+    """The :class:`PlateModel` of a plate scene, with its linear solver.
+
+    Raises
+    ------
+    SceneError
+        If the scene's symmetry does not fit its clamped edges or load (:func:`make_symmetry`).
+    """
+    m = scene.model
+    load = make_load(scene, grid)
+    plate_nu = m.nu if grid.dim == 2 else 0.0
+    symmetry = make_symmetry(scene, grid, load)
+    factor = toughness_factor(grid, m.toughness_noise, m.toughness_noise_length, m.toughness_noise_seed, symmetry)
+    model = PlateModel(grid, plate_nu, m.winkler, m.k_res, m.eta, m.toughness, m.at, load.w,
+                       proportional=load.proportional, linear_solver=None, clamped=load.clamped,
+                       trial_radius=m.eta, symmetry=symmetry, toughness_factor=factor)
+    coords = np.column_stack(grid.coordinates)
+    if symmetry is not None:
+        coords = coords[symmetry.representative]
+    model.linear_solver = make_solver(scene.solver.linear, model.reduced_matrix(np.zeros(grid.n_nodes)),
+                                      near_nullspace=near_nullspace(coords))
+    return model
+
+
+def make_symmetry(scene, grid, load):
+    """The :class:`GridSymmetry` of ``[domain] symmetry`` (None for ``"none"``), after
+    checking that the clamped edges and the load are invariant under it.
+
+    Raises
+    ------
+    SceneError
+        If they are not: the restriction would then solve another problem.
+    """
+    group = scene.domain.symmetry
+    if group == "none":
+        return None
+    symmetry = GridSymmetry(grid, group)
+    if not symmetry.maps_edges(load.clamped):
+        raise SceneError(scene.source, "domain.symmetry",
+                         f'= "{group}": the clamped edges ({", ".join(load.clamped)}) are not mapped onto'
+                         f' themselves by its mirrors; use "none" or a group that keeps them')
+    # Every load of the run (a non-proportional load may change shape with t).
+    for t in np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)[1:]:
+        w = load.w(t)
+        scale = float(np.max(np.abs(w)))
+        asymmetry = symmetry.asymmetry(w)
+        # Not to round-off: node coordinates are mirrored only to round-off, which the
+        # indenter's sqrt(R^2 - r^2) amplifies near the contact edge (5e-9 of |w| at t = 1).
+        if asymmetry > 1e-6 * scale:
+            raise SceneError(scene.source, "domain.symmetry",
+                             f'= "{group}": the load ({scene.load.kind}) at t = {t:g} is not invariant under its'
+                             f" mirrors (largest difference {asymmetry:.3g} against |w| <= {scale:.3g});"
+                             ' use "none" or a group the load has')
+    return symmetry
+
+
+class PlateKind(EvolutionKind):
+    """``kind = "plate"``: the thin film on a Winkler foundation, on a structured grid."""
+
+    name = "plate"
+    required_datasets = ("grid/x", "fields/u", "fields/alpha")
+    labels = {"alpha": r"damage $\alpha$", "u": "deflection u (L)", "energy": "energy (non-dimensional)"}
+    length_unit = "L"
+    results_class = PlateResults
+
+    def parse(self, source, data, text):
+        return plate_scene.parse(source, data, text)
+
+    def setup(self, scene):
+        grid = build_grid(scene.domain)
+        model = make_model(scene, grid)
+        lines = describe(scene)
+        if model.symmetry is not None:
+            lines.append(f'symmetry "{model.symmetry.group}": u and alpha invariant under its mirrors;'
+                         f" u-solves of {model.symmetry.n_orbits} unknowns instead of {grid.n_nodes}")
+        guess = None
+        if scene.coarse is not None:
+            guess = CoarseDamage(scene.coarse, grid)
+            lines.append(f"grid sequencing: each step starts from the damage of {scene.coarse}"
+                         f" ({guess.t.size} steps) at the same load")
+        factor = model.damage.toughness_factor
+        constant = {} if factor is None else {"toughness": scene.model.toughness * factor}
+        groups = {}
+        if scene.material is not None:
+            mat = scene.material
+            groups["material"] = {"E": mat.E, "nu": mat.nu, "h": mat.h, "Gc": mat.Gc,
+                                  "bond_stiffness": mat.bond_stiffness, "L": mat.L, **mat.groups()}
+        return Setup(model=model, discretization=grid.description(), constant=constant, groups=groups,
+                     guess=guess, log=lines)
+
+    def parameters(self, scene):
+        m, load = scene.model, scene.load
+        return {
+            "at": m.at, "nu": m.nu, "lam": m.lam, "winkler": m.winkler, "toughness": m.toughness,
+            "eta": m.eta, "k_res": m.k_res, "t_max": load.t_max, "steps": load.steps, "load": load.kind,
+            "symmetry": scene.domain.symmetry,
+            **({"toughness_noise": m.toughness_noise, "toughness_noise_length": m.toughness_noise_length,
+                "toughness_noise_seed": m.toughness_noise_seed} if m.toughness_noise > 0 else {}),
+            **({"radius": load.radius} if load.radius else {}), **({"field_file": load.file} if load.file else {}),
+            **({"snapshots": scene.snapshots} if scene.snapshots else {}),
+        }
+
+    def warnings(self, scene):
+        return resolution_warnings(scene)
+
+    def summary(self, scene, results):
+        """``"events"``: the steps where the number of cracks along y = 0 changes, with their positions."""
+        events = crack_events(results.t, results.cracks())
+        return {"events": [{"t": float(t), "cracks": [float(c) for c in cracks]} for t, cracks in events]}
+
+    def report(self, scene, results, summary):
+        return [f"t = {e['t']:.6g}: {len(e['cracks'])} crack(s) along y = 0 at "
+                + ", ".join(f"{c:+.4f}" for c in e["cracks"]) for e in summary["events"]]
+
+    def figures(self, results, outdir):
+        from thinfilm.plate.plots import cracks_figure
+
+        return [cracks_figure(results, outdir)]
+
+    def constant_figures(self, results, outdir):
+        from thinfilm.plate.plots import toughness_figure
+
+        return [toughness_figure(results, outdir)]
+
+    def title(self, parameters):
+        p = parameters
+        return (f"AT{p.get('at', '?')}, $\\lambda$ = {p.get('lam', float('nan')):g}, "
+                f"G/a = {p.get('toughness', float('nan')):g}, $\\eta$ = {p.get('eta', float('nan')):.3g}")
+
+
+KIND = PlateKind()

@@ -1,0 +1,259 @@
+"""Writing ``results.h5`` step by step, and ``summary.json``.
+
+Everything a plot, a summary, a resumed run or a later comparison needs is read back from
+these files, never from live objects (:mod:`thinfilm.results.reader`). The layout of a run
+driven by the engine, whatever its kind::
+
+    /                  attrs: format = "thinfilm-results", format_version, kind, scene (the
+                       TOML text), scene_source, scene_overrides (JSON, if any), thinfilm_version,
+                       numpy_version, numba_version, h5py_version, created (UTC, ISO 8601)
+    /parameters        attrs: the kind's parameters (t_max and steps always)
+    /<group>           attrs only, one group per table of the kind's choosing (e.g. /material)
+    /grid or /mesh     the discretization (thinfilm.discretization)
+    /steps/<name>      (n,) one value per finished step: the StepRecord's t, elastic, surface,
+                       total, iterations, u_solves, u_solves_skipped, backtracks, trials,
+                       trials_accepted, time_u, time_alpha, time_total (seconds),
+                       lowest_curvature, saddles_left; then the kind's observables
+    /fields/u          (n, n_nodes * components) displacement of each finished step
+    /fields/alpha      (n, n_nodes) damage of each finished step
+    /fields/<name>     a field stored once (e.g. the toughness of an imperfect film), with
+                       attr per_step = False
+
+``docs/results.md`` describes it for users. A backtrack to step k truncates every per-step
+dataset to k steps before step k is rewritten, so the file always holds the current evolution
+up to its last finished step; files are flushed after every step, so a run that is killed
+leaves a valid file whose finished steps can be read and resumed.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from datetime import datetime, timezone
+from pathlib import Path
+
+import h5py
+import numba
+import numpy as np
+
+from thinfilm import __version__
+from thinfilm.results.reader import FORMAT, FORMAT_VERSION, finished_steps
+
+__all__ = ["ResumeError", "ResultsWriter", "STEP_FIELDS", "INTEGER_STEP_FIELDS", "root_attributes",
+           "write_json", "write_summary"]
+
+#: Per-step records of an engine run, in /steps (names of thinfilm.engine.records.StepRecord).
+STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_solves_skipped",
+               "backtracks", "trials", "trials_accepted", "time_u", "time_alpha", "time_total",
+               "lowest_curvature", "saddles_left")
+#: The integer ones among them.
+INTEGER_STEP_FIELDS = ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials", "trials_accepted",
+                       "saddles_left")
+
+
+class ResumeError(RuntimeError):
+    """A results file that cannot be continued; the message is one line for the user."""
+
+
+def root_attributes(scene):
+    """The root attributes of every results file: format, kind, the scene, versions, date."""
+    attrs = {
+        "format": FORMAT, "format_version": FORMAT_VERSION, "kind": scene.kind, "scene": scene.text,
+        "scene_source": scene.source,
+    }
+    if getattr(scene, "overrides", None):
+        attrs["scene_overrides"] = scene.overrides
+    attrs.update({
+        "thinfilm_version": __version__, "numpy_version": np.__version__, "numba_version": numba.__version__,
+        "h5py_version": h5py.__version__, "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    })
+    return attrs
+
+
+def _atomic_path(path):
+    return path.with_name(f".{path.name}.partial")
+
+
+def write_json(path, content, indent=1):
+    """Write ``content`` as JSON under a temporary name, then rename it: never half a file."""
+    path = Path(path)
+    partial = _atomic_path(path)
+    partial.write_text(json.dumps(content, indent=indent) + "\n", encoding="utf-8")
+    os.replace(partial, path)
+    return path
+
+
+class ResultsWriter:
+    """``results.h5`` of a run driven by the engine, written and flushed step by step.
+
+    Parameters
+    ----------
+    path : Path
+    scene : object
+        The validated scene (its ``kind``, ``text``, ``source``, ``overrides`` are stored).
+    parameters : dict
+        Attributes of ``/parameters``.
+    discretization : StructuredGrid or SimplexMesh
+        Written to ``/grid`` or ``/mesh``.
+    components : dict, optional
+        Values per node of ``u`` and ``alpha`` (default 1 each; 2 or 3 for a vector ``u``).
+    observables : sequence of str, optional
+        Names of the kind's own per-step values (e.g. a reaction force), stored in
+        ``/steps/<name>`` beside the engine's records.
+    constant : dict, optional
+        Fields stored once, ``{name: ndarray of shape (n_nodes,)}``; on resume they are
+        checked against the stored ones (an imperfect film's toughness, which another numpy
+        could draw differently from the same seed).
+    groups : dict, optional
+        ``{group name: attributes}``, written as attribute-only groups (e.g. ``material``).
+    resume : bool
+        Continue an existing file written by the same scene (text and overrides).
+    """
+
+    def __init__(self, path, scene, parameters, discretization, *, components=None, observables=(),
+                 constant=None, groups=None, resume=False):
+        self.path = Path(path)
+        self.observables = tuple(observables)
+        self.step_fields = STEP_FIELDS + self.observables
+        constant = constant or {}
+        if resume:
+            self.file = h5py.File(self.path, "r+")
+            stored = self.file.attrs.get("scene", "")
+            if stored != scene.text or self.file.attrs.get("scene_overrides", None) != getattr(scene, "overrides", None):
+                self.file.close()
+                raise ResumeError(f"{self.path} was written by a different scene text; it cannot be resumed"
+                                  " (run with --force to start over)")
+            for name, values in constant.items():
+                if not np.array_equal(self.file["fields"][name][()], values):
+                    self.file.close()
+                    raise ResumeError(f"{self.path}: this installation computes another {name} field than the"
+                                      " stored one (numpy's random generator changed?); it cannot be resumed"
+                                      " (run with --force)")
+            n = self.trim()  # a step whose write was cut short is not finished
+            for name in self.step_fields:
+                if name not in self.file["steps"]:   # written before the record existed
+                    self._create_step_dataset(self.file["steps"], name, n)
+            self.file.flush()
+            return
+        self.file = h5py.File(self.path, "w")
+        f = self.file
+        f.attrs.update(root_attributes(scene))
+        f.create_group("parameters").attrs.update(parameters)
+        for name, attrs in (groups or {}).items():
+            f.create_group(name).attrs.update(attrs)
+        discretization.write(f)
+        steps = f.create_group("steps")
+        for name in self.step_fields:
+            self._create_step_dataset(steps, name, 0)
+        fields = f.create_group("fields")
+        n_nodes = discretization.n_nodes
+        for name in ("u", "alpha"):
+            c = (components or {}).get(name, 1)
+            n = n_nodes * c
+            ds = fields.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype=np.float64,
+                                       chunks=(1, min(n, 1 << 20)))
+            if c > 1:
+                ds.attrs["components"] = c
+        for name, values in constant.items():
+            ds = fields.create_dataset(name, data=np.asarray(values, dtype=np.float64))
+            ds.attrs["per_step"] = False
+        f.flush()
+
+    @staticmethod
+    def _create_step_dataset(steps, name, n):
+        """``/steps/<name>`` with ``n`` rows (0 for integers, NaN for floats: not recorded)."""
+        integer = name in INTEGER_STEP_FIELDS
+        ds = steps.create_dataset(name, shape=(n,), maxshape=(None,), dtype=np.int64 if integer else np.float64,
+                                  chunks=(256,))
+        if n:
+            ds[:] = 0 if integer else np.nan
+
+    def write_step(self, record, state, observed=None):
+        """Store step ``record.index`` (truncating any later steps) and flush.
+
+        The fields are written before the step's records, so a step counts as finished
+        (``/steps/t`` has it) only once its fields are stored.
+
+        Parameters
+        ----------
+        record : thinfilm.engine.records.StepRecord
+        state : thinfilm.engine.records.State
+        observed : dict, optional
+            The kind's observables at this state, ``{name: float}``.
+        """
+        k = record.index
+        f = self.file
+        for name, values in (("u", state.u), ("alpha", state.alpha)):
+            ds = f["fields"][name]
+            ds.resize((k + 1, ds.shape[1]))
+            ds[k] = values
+        for name in self.step_fields:
+            ds = f["steps"][name]
+            ds.resize((k + 1,))
+            ds[k] = observed[name] if name in self.observables else getattr(record, name)
+        f.flush()
+
+    def trim(self):
+        """Cut every per-step dataset to the finished steps (after a write was interrupted);
+        returns their number."""
+        f = self.file
+        n = finished_steps(f)
+        for name in f["steps"]:
+            f["steps"][name].resize((n,))
+        for name in ("u", "alpha"):
+            ds = f["fields"][name]
+            ds.resize((n, ds.shape[1]))
+        f.flush()
+        return n
+
+    def history(self, all_alpha=True):
+        """The finished steps, as states to resume the evolution from.
+
+        Parameters
+        ----------
+        all_alpha : bool
+            Read the damage of every finished step (backtracking may return to any of
+            them); otherwise only the last one's, the others' left as None.
+
+        Returns
+        -------
+        list of thinfilm.engine.records.State
+            One per finished step; the last one carries ``u``.
+        """
+        from thinfilm.engine.records import State
+
+        f = self.file
+        n = finished_steps(f)
+        t, elastic, surface = (f["steps"][name][:n] for name in ("t", "elastic", "surface"))
+        states = []
+        for k in range(n):
+            last = k == n - 1
+            alpha = f["fields/alpha"][k] if (all_alpha or last) else None
+            u = f["fields/u"][k] if last else None
+            states.append(State(float(t[k]), u, alpha, float(elastic[k]), float(surface[k])))
+        return states
+
+    def close(self):
+        self.file.close()
+
+
+def write_summary(path, scene, results, extra=None):
+    """``summary.json`` of a run driven by the engine.
+
+    ``{"kind": ..., "scene": <scene file>, "parameters": {...}, <the kind's own entries>,
+    "steps": {"t": [...], "elastic": [...], "surface": [...], "total": [...], "iterations": [...]}}``
+
+    Parameters
+    ----------
+    path : Path
+    scene : object
+        The validated scene.
+    results : thinfilm.results.reader.Results
+        The run's open results (finished steps).
+    extra : dict, optional
+        The kind's own entries (the film's crack events, for example).
+    """
+    content = {"kind": scene.kind, "scene": scene.source, "parameters": results.parameters, **(extra or {}),
+               "steps": {name: results.steps[name].tolist()
+                         for name in ("t", "elastic", "surface", "total", "iterations")}}
+    return write_json(path, content)
