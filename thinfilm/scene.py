@@ -30,7 +30,7 @@ from pathlib import Path
 
 from thinfilm import kinds
 from thinfilm.engine.options import SCENE_GROUPS, EngineOptions
-from thinfilm.options import OptionError, Rule, option, scene_keys, validate
+from thinfilm.options import OptionError, Rule, option, reference_rows, scene_keys, validate
 from thinfilm.solvers.linear import KINDS as LINEAR_KINDS
 
 __all__ = ["SceneError", "Table", "show", "SolverSettings", "read_solver", "read_snapshots", "parse_scene", "load_scene",
@@ -381,3 +381,20 @@ def load_scene(path, overrides=None):
     except (IsADirectoryError, PermissionError, UnicodeDecodeError) as err:
         raise SceneError(path, None, f"cannot read the scene file ({err.__class__.__name__})") from None
     return parse_scene(text, source=str(path), overrides=overrides)
+
+
+def solver_reference():
+    """The ``[solver]`` keys as a Markdown table, from their declarations (``docs/scenes.md``
+    holds this table between ``<!-- solver-options -->`` markers; a test checks they agree).
+
+    Returns
+    -------
+    str
+        The table's lines, header first.
+    """
+    rows = ["| key | default | allowed | units | meaning |", "|---|---|---|---|---|"]
+    for group, cls, prefix, head in SCENE_GROUPS:
+        rows += [f"| `{k}` | {d} | {a} | {u} | {m} |" for k, d, a, u, m in reference_rows(cls, prefix, head)]
+    rows += [f"| `{k}` | {d} | {a} | {u} | {m} |" for k, d, a, u, m in reference_rows(SolverSettings)
+             if k not in ("altmin", "backtrack", "search", "stability")]
+    return "\n".join(rows)

@@ -147,8 +147,9 @@ class SearchOptions:
 
     enabled: bool = option(False, "after each step, try trial cracks where the film is sound and keep the lowest"
                            " energy", rule=Rule("boolean"))
-    delta: float = option(1e-3, "energy gain a trial must bring to be kept", rule=Rule("number", minimum=0.0),
-                          units="toughness x length")
+    delta: float = option(1e-3, "energy gain a trial must bring to be kept, as a multiple of the model's"
+                          " toughness (the energy of a crack 1e-3 long by default)", rule=Rule("number", minimum=0.0),
+                          units="toughness")
     rounds: int = option(3, "searches per load step at most", rule=Rule("integer", minimum=1))
 
     def __post_init__(self):
