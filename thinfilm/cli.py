@@ -77,24 +77,21 @@ def _run(args):
 
 def _compare(args):
     scene = load_scene(args.scene)
-    if scene.kind != "plate":
-        raise SceneError(args.scene, "model.kind", f'= "{scene.kind}": compare needs a "plate" scene')
+    kind = kinds.get(scene.kind)
+    if not callable(getattr(kind, "compare", None)):
+        raise SceneError(args.scene, "model.kind", f'= "{scene.kind}": compare needs a kind with an exact'
+                         ' counterpart ("plate")')
     outdir = Path(args.out) if args.out else default_outdir(args.scene)
     results = outdir / "results.h5"
     if not results.exists():
         status = _run_scene(scene, outdir, args)
         if status:
             return status
-    from thinfilm.plate.compare import compare
-
-    figure, report = compare(results, outdir)
+    paths, lines = kind.compare(results, outdir)
     if not args.quiet:
-        import json
-
-        for e in json.loads(report.read_text())["events"]:
-            reg = "not reached" if e["regularized_t"] is None else f"t = {e['regularized_t']:.4g}"
-            print(f"exact t = {e['exact_t']:.4f} ({len(e['exact_cracks'])} cracks); regularized: {reg}")
-        print(f"wrote {figure}, {report}")
+        for line in lines:
+            print(line)
+        print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 
 

@@ -219,6 +219,20 @@ class PlateKind(EvolutionKind):
 
         return [toughness_figure(results, outdir)]
 
+    def compare(self, results, outdir):
+        """Draw the run against the exact 1D evolution of the same film
+        (:func:`thinfilm.plate.compare.compare`); returns the files written and report lines."""
+        import json
+
+        from thinfilm.plate.compare import compare
+
+        figure, report = compare(results, outdir)
+        lines = []
+        for e in json.loads(report.read_text())["events"]:
+            reached = "not reached" if e["regularized_t"] is None else f"t = {e['regularized_t']:.4g}"
+            lines.append(f"exact t = {e['exact_t']:.4f} ({len(e['exact_cracks'])} cracks); regularized: {reached}")
+        return [figure, report], lines
+
     def title(self, parameters):
         p = parameters
         return (f"AT{p.get('at', '?')}, $\\lambda$ = {p.get('lam', float('nan')):g}, "

@@ -1,0 +1,141 @@
+"""The import graph of the toolkit: no cycles, and dependencies that point one way.
+
+Every ``import`` statement of ``onedim`` and ``thinfilm`` is read from the source (also those
+inside functions, which run later but still tie two modules together), and:
+
+* the graph of modules has no cycle;
+* ``onedim`` imports nothing of ``thinfilm``;
+* the shared core (``thinfilm.engine``, ``thinfilm.solvers`` and the generic modules at the
+  top of ``thinfilm``) imports no model kind (``thinfilm.plate``, ``thinfilm.exact1d``): it
+  finds them through :mod:`thinfilm.kinds` by name, so a new kind needs no change to it;
+* the engine and the solvers import nothing of the generic layer above them (scenes,
+  results, plots, the command line).
+"""
+
+from __future__ import annotations
+
+import ast
+
+import pytest
+
+from tests.helpers import ROOT
+
+PACKAGES = ("onedim", "thinfilm")
+KINDS = ("thinfilm.plate", "thinfilm.exact1d")
+
+
+def module_name(path):
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def modules():
+    """``{module name: path}`` of every module of the toolkit."""
+    out = {}
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            out[module_name(path)] = path
+    return out
+
+
+def imports(name, path, known):
+    """The toolkit's modules that module ``name`` imports (anywhere in its source)."""
+    is_package = path.name == "__init__.py"
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = name.split(".") if is_package else name.split(".")[:-1]
+                anchor = anchor[: len(anchor) - (node.level - 1)]
+                base = ".".join(anchor + ([base] if base else []))
+            # ``from package import module`` imports the module; ``from module import name``
+            # the module itself.
+            targets = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in known else base for alias in node.names]
+        else:
+            continue
+        for target in targets:
+            while target and target not in known:  # ``import a.b.c`` of a package's module
+                target = target.rpartition(".")[0]
+            if target and target != name:
+                out.add(target)
+    return out
+
+
+@pytest.fixture(scope="module")
+def graph():
+    known = modules()
+    return {name: imports(name, path, known) for name, path in known.items()}
+
+
+def cycles(graph):
+    """The strongly connected components with more than one module (Tarjan)."""
+    index, low, stack, on_stack, out = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                out.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_the_reader_finds_imports_and_a_cycle():
+    # The checks below are only as good as the graph: a drawn cycle must be found.
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_the_graph_sees_the_known_edges(graph):
+    assert "thinfilm.engine.options" in graph["thinfilm.engine.evolution"]
+    assert "thinfilm.solvers.boxqp" in graph["thinfilm.engine.evolution"]
+    assert "thinfilm.run" in graph["thinfilm.plate.kind"]
+    assert "onedim.fragment" in graph["thinfilm.exact1d.scene"]
+
+
+def test_no_import_cycles(graph):
+    assert cycles(graph) == []
+
+
+def test_onedim_stands_alone(graph):
+    for name, targets in graph.items():
+        if name.startswith("onedim"):
+            assert not [t for t in targets if t.startswith("thinfilm")], name
+
+
+def test_the_core_imports_no_model_kind(graph):
+    for name, targets in graph.items():
+        if name.startswith(("onedim",) + KINDS):
+            continue
+        assert not [t for t in targets if t.startswith(KINDS)], f"{name} imports a model kind"
+
+
+def test_engine_and_solvers_sit_below_the_generic_layer(graph):
+    for name, targets in graph.items():
+        if name.startswith(("thinfilm.engine", "thinfilm.solvers")):
+            above = [t for t in targets if not t.startswith(("thinfilm.engine", "thinfilm.solvers", "thinfilm.options"))
+                     and t.startswith("thinfilm")]
+            assert not above, f"{name} imports {above}"
