@@ -57,8 +57,26 @@ def _run_scene(scene, outdir, args, resume=False):
     return 0
 
 
+def _overrides(args):
+    """``--set KEY=VALUE`` options as scene overrides (values read as TOML)."""
+    import tomllib
+
+    out = {}
+    for item in args.overrides:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise SceneError(args.scene, None, f"--set {item}: must be KEY=VALUE, e.g. --set model.toughness=1.5")
+        try:
+            out[key] = tomllib.loads(f"value = {value.strip()}")["value"]
+        except tomllib.TOMLDecodeError:
+            raise SceneError(args.scene, key, f"--set {item}: the value must be a TOML value (a number, true/false,"
+                             ' a "string" or an [array])') from None
+    return out
+
+
 def _run(args):
-    scene = load_scene(args.scene)
+    scene = load_scene(args.scene, overrides=_overrides(args))
     outdir = Path(args.out) if args.out else default_outdir(args.scene)
     if outdir.exists() and not outdir.is_dir():
         raise SceneError(args.scene, None, f"output path {outdir} exists and is not a directory (use --out DIR)")
@@ -76,7 +94,7 @@ def _run(args):
 
 
 def _compare(args):
-    scene = load_scene(args.scene)
+    scene = load_scene(args.scene, overrides=_overrides(args))
     kind = kinds.get(scene.kind)
     if not callable(getattr(kind, "compare", None)):
         raise SceneError(args.scene, "model.kind", f'= "{scene.kind}": compare needs a kind with an exact'
@@ -165,11 +183,17 @@ def build_parser():
     run.add_argument("--resume", action="store_true",
                      help="continue the run in the output directory from its last finished step")
     run.add_argument("--force", action="store_true", help="overwrite results already in the output directory")
+    run.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
+                     help="set a scene key for this run, the value in TOML (e.g. --set model.toughness=1.5"
+                          " --set 'domain.cells=[200, 200]'); stored with the results, and needed again to"
+                          " --resume")
     run.set_defaults(func=_run)
     cmp_ = sub.add_parser("compare", help="run a plate scene (unless its results exist) and draw it against the exact 1D evolution")
     cmp_.add_argument("scene", help="plate scene file (TOML)")
     cmp_.add_argument("--out", metavar="DIR", help="output directory (default: next to the scene, named after it)")
     cmp_.add_argument("--quiet", action="store_true", help="no progress bar and no report")
+    cmp_.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
+                      help="set a scene key, as for run")
     cmp_.set_defaults(func=_compare)
     _add_inspect_commands(sub)
     return parser

@@ -292,7 +292,9 @@ def apply_overrides(data, overrides, source="<string>"):
     """Set dotted keys on a scene's parsed TOML, in place: ``{"model.winkler": 3e6}``.
 
     Tables named on the way are made if missing; a key whose parent is a value, not a table,
-    is refused. The result is validated like any scene afterwards.
+    is refused. The value None removes the key (TOML has no null): ``{"model.eta_dx": None,
+    "model.eta": 0.005}`` trades one for the other. The result is validated like any scene
+    afterwards.
 
     Raises
     ------
@@ -306,7 +308,10 @@ def apply_overrides(data, overrides, source="<string>"):
             if not isinstance(node, dict):
                 raise SceneError(source, ".".join(parts[: depth + 1]), "is a value, not a table: cannot override"
                                  f" {dotted}")
-        node[parts[-1]] = value
+        if value is None:
+            node.pop(parts[-1], None)
+        else:
+            node[parts[-1]] = value
     return data
 
 

@@ -2,15 +2,14 @@
 variant must be the same experiment, changed only where its comment says."""
 
 import dataclasses
-import importlib.util
 import tomllib
 
 import pytest
 
 from thinfilm.scene import SceneError, load_scene, parse_scene
 
-from tests.helpers import CASES  # noqa: E402
-BENCH = CASES.parent / "benchmarks" / "bench_imperfect_branching.py"
+from studies.branching import imperfect
+from tests.helpers import CASES
 
 
 @pytest.mark.parametrize("path", sorted(CASES.glob("*.toml")), ids=lambda p: p.name)
@@ -46,10 +45,10 @@ def test_fine_branching_scene_changes_only_the_grid_and_the_film(name):
     dx = (fine.domain.x[1] - fine.domain.x[0]) / fine.domain.cells[0]
     assert fine.model.eta / dx == pytest.approx(10.0)
     assert fine.model.toughness_noise == 0.05 and fine.model.toughness_noise_length == fine.model.eta
-    # The README's figures of these scenes come from bench_imperfect_branching.py --finer
-    # --seeds 1, which builds them from the coarse case file: it must build this very scene.
-    spec = importlib.util.spec_from_file_location("bench_imperfect_branching", BENCH)
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
-    built = parse_scene(bench.scene_text(name, 0.05, 1, bench.FINER), source=fine.source)
-    assert dataclasses.replace(built, text=fine.text) == fine
+    # The study's figures of these scenes (studies/branching/README.md) come from
+    # `python -m studies.branching.imperfect --finer --seeds 1`, which builds them from the
+    # coarse case file with overrides: it must build this very scene (all but the file it
+    # was read from and the overrides' record).
+    built = imperfect.scene(name, 0.05, 1, imperfect.FINER)
+    assert built.source == coarse.source and built.text == coarse.text and built.overrides is not None
+    assert dataclasses.replace(built, text=fine.text, source=fine.source, overrides=None) == fine

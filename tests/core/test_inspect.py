@@ -5,6 +5,7 @@ Two small plate runs are made once per module through the command line: a 1D fil
 and a 40 x 8 strip.
 """
 
+import json
 import re
 import shutil
 import xml.etree.ElementTree as ET
@@ -17,66 +18,27 @@ import pytest
 from thinfilm.cli import main
 from thinfilm.plots import snapshot_steps
 
-FILM_1D = """
-[model]
-kind = "plate"
-at = 1
-lam = 10.0
-toughness = 0.05
-eta_dx = 10
-k_res = 1e-6
-[domain]
-x = [-0.25, 0.25]
-cells = 200
-[load]
-kind = "bending"
-t_max = 3.0
-steps = 20
-[solver]
-backtrack = "standard"
-"""
+from tests.helpers import CASES
 
-STRIP_2D = """
-[model]
-kind = "plate"
-at = 1
-nu = 0.3
-lam = 10.0
-toughness = 0.05
-eta_dx = 2
-k_res = 1e-6
-[domain]
-x = [-0.25, 0.25]
-y = [-0.05, 0.05]
-cells = [40, 8]
-[load]
-kind = "bending"
-t_max = 3.0
-steps = 20
-"""
+#: The runs inspected: case files with overrides (``thinfilm run CASE --set KEY=VALUE``).
+#: A 1D film (Fig. 2.5's, coarser, without the search), a 2D strip (Fig. 2.7's strip at
+#: lam = 10, small), and the exact 0.5 film of Fig. 2.15 (fewer steps and cells).
+FILM_1D = ("fig2_5", {"domain.cells": 200, "load.steps": 20, "solver.search": False})
+STRIP_2D = ("fig2_7", {"model.lam": 10.0, "model.eta_dx": 2, "domain.x": [-0.25, 0.25], "domain.y": [-0.05, 0.05],
+                       "domain.cells": [40, 8], "load.t_max": 3.0, "load.steps": 20, "solver.backtrack": "none",
+                       "solver.acceleration": "none"})
+EXACT = ("fig2_15", {"load.steps": 30, "grid.cells": 200})
 
-EXACT = """
-[model]
-kind = "exact1d"
-length = 0.5
-lam = 10.0
-toughness = 0.05
-[load]
-t_max = 3.0
-steps = 30
-[grid]
-cells = 200
-"""
 
 PNG = b"\x89PNG\r\n\x1a\n"
 FIGURES = ("energy.png", "cracks.png", "alpha.png", "alpha_snapshots.png", "u_snapshots.png", "iterations.png")
 
 
-def _run(root, name, text):
-    scene = root / f"{name}.toml"
-    scene.write_text(text)
+def _run(root, name, case):
+    stem, overrides = case
     out = root / name
-    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
+    settings = [f"--set={key}={json.dumps(value)}" for key, value in overrides.items()]
+    assert main(["run", str(CASES / f"{stem}.toml"), "--out", str(out), "--quiet"] + settings) == 0
     return out / "results.h5"
 
 
@@ -176,8 +138,9 @@ def test_info_reports_scene_progress_energies_and_timings(runs, dim, capsys):
     for name in ("elastic", "surface", "total"):
         assert _printed(out, name) == pytest.approx(last[name], rel=1e-11), name
     assert re.search(r"last finished step: 20, t = 3$", out, re.M)
-    scene = (FILM_1D if dim == "1d" else STRIP_2D).strip().splitlines()
-    assert all(line.strip() in out for line in scene)
+    stem, overrides = FILM_1D if dim == "1d" else STRIP_2D
+    assert all(line.strip() in out for line in (CASES / f"{stem}.toml").read_text().strip().splitlines())
+    assert f"overrides: {json.dumps(overrides, sort_keys=True)}" in out
     assert re.search(r"^versions: thinfilm \S+, numpy \S+, numba \S+, h5py \S+$", out, re.M)
     with h5py.File(results) as f:
         iterations = int(f["steps/iterations"][()].sum())

@@ -1,5 +1,6 @@
 """Runs that survive: kill and resume to the same results, Ctrl-C, refusing to overwrite."""
 
+import json
 import os
 import signal
 import subprocess
@@ -12,26 +13,20 @@ import pytest
 
 from thinfilm.cli import main
 
-from tests.helpers import ROOT  # noqa: E402
+from tests.helpers import CASES, ROOT
 
 # A 1D film with backtracking (so resuming must restore the history the backtracking test
-# reads), small enough to run in about a second.
-SCENE = """
-[model]
-kind = "plate"
-lam = 10.0
-toughness = 0.05
-eta_dx = 8
-[domain]
-x = [-0.25, 0.25]
-cells = 160
-[load]
-kind = "bending"
-t_max = 2.0
-steps = 60
-[solver]
-backtrack = "standard"
-"""
+# reads), small enough to run in about a second: Fig. 2.5's film (cases/fig2_5.toml), coarser,
+# without the search. A run is named by the case file and its overrides, given to the command
+# line as --set options (a resumed run must be given the same).
+FILM = {"model.eta_dx": 8, "domain.cells": 160, "load.t_max": 2.0, "load.steps": 60, "solver.search": False}
+
+
+def _args(scene, out, *options):
+    """``thinfilm run`` arguments of ``scene = (case file, overrides)``."""
+    path, overrides = scene
+    return ["run", str(path), "--out", str(out), "--quiet", *options] + [
+        f"--set={key}={json.dumps(value)}" for key, value in overrides.items()]
 
 
 def _steps_done(results):
@@ -44,7 +39,7 @@ def _steps_done(results):
 
 def _start(scene, out):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    return subprocess.Popen([sys.executable, "-m", "thinfilm", "run", str(scene), "--out", str(out), "--quiet"],
+    return subprocess.Popen([sys.executable, "-m", "thinfilm", *_args(scene, out)],
                             env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -71,24 +66,23 @@ def _fields(results):
         return {k: v[()] for k, v in f["steps"].items()}, f["fields/alpha"][()], f["fields/u"][()]
 
 
-def _reference(tmp_path_factory, text):
+def _reference(tmp_path_factory, overrides):
     tmp = tmp_path_factory.mktemp("reference")
-    scene = tmp / "film.toml"
-    scene.write_text(text)
-    assert main(["run", str(scene), "--out", str(tmp / "out"), "--quiet"]) == 0
+    scene = (CASES / "fig2_5.toml", overrides)
+    assert main(_args(scene, tmp / "out")) == 0
     return scene, _fields(tmp / "out" / "results.h5")
 
 
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
-    return _reference(tmp_path_factory, SCENE)
+    return _reference(tmp_path_factory, FILM)
 
 
 @pytest.fixture(scope="module")
 def reference_mirror(tmp_path_factory):
     # The same film restricted to fields even in x: the resumed run must rebuild the same
     # restriction and continue from the stored (full-size) fields.
-    return _reference(tmp_path_factory, SCENE.replace("cells = 160", 'cells = 160\nsymmetry = "mirror_x"'))
+    return _reference(tmp_path_factory, {**FILM, "domain.symmetry": "mirror_x"})
 
 
 @pytest.mark.parametrize("name", ["reference", "reference_mirror"])
@@ -99,8 +93,8 @@ def test_killed_run_resumes_to_the_same_results(name, request, tmp_path):
     _stop_after(proc, out / "results.h5", 30, signal.SIGKILL)
     done = _steps_done(out / "results.h5")
     assert 30 <= done < 61  # a valid file with the finished steps
-    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 2  # refuses to overwrite
-    assert main(["run", str(scene), "--out", str(out), "--resume", "--quiet"]) == 0
+    assert main(_args(scene, out)) == 2  # refuses to overwrite
+    assert main(_args(scene, out, "--resume")) == 0
     got_steps, got_alpha, got_u = _fields(out / "results.h5")
     assert len(got_steps["t"]) == 61
     np.testing.assert_array_equal(got_steps["t"], steps["t"])
@@ -128,22 +122,22 @@ def test_existing_results_need_force_or_resume(reference, tmp_path, capsys):
     out = tmp_path / "out"
     (out).mkdir()
     (out / "results.h5").write_bytes(b"")
-    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 2
+    assert main(_args(scene, out)) == 2
     err = capsys.readouterr().err.strip()
     assert "already holds results.h5" in err and "--force" in err and "\n" not in err
-    assert main(["run", str(scene), "--out", str(out), "--resume", "--force", "--quiet"]) == 2
-    assert main(["run", str(scene), "--out", str(out), "--force", "--quiet"]) == 0
+    assert main(_args(scene, out, "--resume", "--force")) == 2
+    assert main(_args(scene, out, "--force")) == 0
     assert _steps_done(out / "results.h5") == 61
 
 
 def test_resume_refuses_a_different_scene(reference, tmp_path, capsys):
     scene, _ = reference
     out = tmp_path / "out"
-    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
-    other = tmp_path / "other.toml"
-    other.write_text(SCENE.replace("toughness = 0.05", "toughness = 0.06"))
-    assert main(["run", str(other), "--out", str(out), "--resume", "--quiet"]) == 2
-    assert "different scene" in capsys.readouterr().err
+    assert main(_args(scene, out)) == 0
+    # Another value of one key, and the same file without the overrides, are other scenes.
+    for other in ((scene[0], {**scene[1], "model.toughness": 0.06}), (scene[0], {})):
+        assert main(_args(other, out, "--resume")) == 2
+        assert "different scene" in capsys.readouterr().err
 
 
 def test_resume_a_file_written_before_the_stability_records(reference, tmp_path):
@@ -151,7 +145,7 @@ def test_resume_a_file_written_before_the_stability_records(reference, tmp_path)
     existed) resumes: the new records are added, unrecorded (NaN, 0) for its old steps."""
     scene, (steps, alpha, _) = reference
     out = tmp_path / "out"
-    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
+    assert main(_args(scene, out)) == 0
     with h5py.File(out / "results.h5", "r+") as f:
         for name in ("lowest_curvature", "saddles_left"):
             del f["steps"][name]
@@ -159,7 +153,7 @@ def test_resume_a_file_written_before_the_stability_records(reference, tmp_path)
             ds.resize((30,))
         for name in ("u", "alpha"):
             f["fields"][name].resize((30, f["fields"][name].shape[1]))
-    assert main(["run", str(scene), "--out", str(out), "--resume", "--quiet"]) == 0
+    assert main(_args(scene, out, "--resume")) == 0
     got_steps, got_alpha, _ = _fields(out / "results.h5")
     np.testing.assert_allclose(got_steps["total"], steps["total"], rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(got_alpha, alpha, rtol=0, atol=1e-12)

@@ -80,7 +80,7 @@ def test_fig2_18_row_nine_then_nineteen():
     lam, G = 31.62, 1.0
     events = evolve(1.0, lam, G, cells=1000, t_max=12.0)
     assert [len(e.cracks) for e in events] == [9, 19]
-    # The 9-crack load in closed form (MODEL.md): t^2 = 2 * 9 G / (F(1) - 10 F(0.1)).
+    # The 9-crack load in closed form (docs/model.md#reference-evolutions): t^2 = 2 * 9 G / (F(1) - 10 F(0.1)).
     assert events[0].t == pytest.approx(t_equal_split(1.0, 10, lam, G), rel=1e-10)
     assert events[0].t == pytest.approx(5.36068, abs=1e-5)
     assert events[0].cracks == pytest.approx(np.arange(-0.4, 0.41, 0.1), abs=1e-9)
@@ -89,10 +89,11 @@ def test_fig2_18_row_nine_then_nineteen():
     assert events[1].cracks == pytest.approx(np.arange(-0.45, 0.46, 0.05), abs=1e-9)
 
 
-# MODEL.md's reference table. Positions agree to grid resolution. Its loads for lam = 10 and
-# the 19-crack event are 0.04%-0.13% above the exact values (closed forms above, e.g. a
-# centred crack of the 0.5 film at t = 0.681568 from t^2 = 2G/(F(0.5) - 2F(0.25)), not
-# 0.6825): they look read off a load grid. The exact values are asserted to 1e-9 above;
+# The reference table of docs/model.md#reference-evolutions, as first published. Positions
+# agree to grid resolution. Its loads for lam = 10 and the 19-crack event are 0.04%-0.13%
+# above the exact values (closed forms above, e.g. a centred crack of the 0.5 film at
+# t = 0.681568 from t^2 = 2G/(F(0.5) - 2F(0.25)), not 0.6825): they look read off a load
+# grid. The exact values are asserted to 1e-9 above;
 # here the table is only checked to the accuracy it actually has.
 MODEL_TABLE = [
     (0.5, 10.0, 0.05, 1000, 3.0, [(0.6825, [0.0]), (1.620, [-0.125, 0.0, 0.125])]),

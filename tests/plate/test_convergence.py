@@ -11,7 +11,7 @@
   conditions it is the smoothest one (least ``Int |D^3 u|^2``) for a unit
   ``Int |D^2 u|^2 + Int_boundary u_tt^2``, so its edges carry O(1) tangential curvature (the
   free-edge closure matters) and it is resolved by coarse grids.
-- 1D: the free fragment under pure bending against its closed form (MODEL.md 2.29-2.31).
+- 1D: the free fragment under pure bending against its closed form (2.29)-(2.31) (docs/model.md#exact-1d-solution).
 - A crack band's energy against its direction: the grid favours axis-aligned bands, by a
   gap that vanishes at first order in h / eta.
 - A documented measurement: the naive free-edge closure on a strip in cylindrical bending
@@ -192,7 +192,7 @@ def test_manufactured_polynomial_meets_its_conditions():
 
 
 # ------------------------------------------------------------------------------------------
-# 1D fragment, exact solution (MODEL.md 2.29-2.31)
+# 1D fragment, exact solution (2.29)-(2.31), docs/model.md#exact-1d-solution
 # ------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("lam", [3.0, 10.0])
 def test_fragment_1d_order_two(lam):
@@ -239,7 +239,7 @@ def strip_energies(closure, ns, nu=0.3, lam=10.0):
 
 
 def test_naive_free_edge_closure_is_first_order():
-    """Documented measurement (SOLVER_NOTES.md): on the strip in cylindrical bending with
+    """Documented measurement (docs/solvers.md#free-edges-of-the-plate): on the strip in cylindrical bending with
     nu = 0.3, the energy self-converges at order ~2 with the closure ``(1 - nu^2) u_tt^2``
     and ~1.1-1.2 with the naive one (which drops the missing differences). (The manufactured
     polynomial above has too little edge curvature compared to its 4th derivatives for the

@@ -1,5 +1,6 @@
 """Imperfect films: the random toughness field and the surface energy of a varying toughness."""
 
+import json
 import math
 
 import h5py
@@ -12,6 +13,8 @@ from thinfilm.plate.grid import Grid
 from thinfilm.plate.imperfection import gaussian_field, toughness_factor
 from thinfilm.plate.operators import DamageOperator, PlateOperator
 from thinfilm.plate.symmetry import GridSymmetry
+
+from tests.helpers import CASES
 
 
 def _correlation(xi, lag):
@@ -129,30 +132,22 @@ def test_surface_energy_of_a_varying_toughness_converges_at_second_order():
     assert 1.8 < order < 2.3, (errors, order)
 
 
-NOISY = """
-[model]
-kind = "plate"
-toughness = 1.5
-winkler = 6.4e7
-eta = 0.01
-toughness_noise = 0.05
-toughness_noise_seed = 3
-[domain]
-x = [-0.06, 0.06]
-y = [-0.06, 0.06]
-cells = [24, 24]
-[load]
-kind = "indenter"
-radius = 0.1
-t_max = 0.02
-steps = 2
-"""
+#: The small indenter at G/a = 1.5 (``cases/indentation_branching_G15.toml``) as an imperfect
+#: film, on a small domain, two steps.
+NOISY = {"domain.x": [-0.06, 0.06], "domain.y": [-0.06, 0.06], "domain.cells": [24, 24], "model.eta": 0.01,
+         "model.toughness_noise": 0.05, "model.toughness_noise_seed": 3, "load.t_max": 0.02, "load.steps": 2,
+         "solver.acceleration": "none", "output.snapshots": [0.02]}
+
+
+def run_noisy(tmp_path, overrides, *options):
+    """``thinfilm run`` of the imperfect film with ``overrides`` (as ``--set`` options)."""
+    scene = CASES / "indentation_branching_G15.toml"
+    settings = [f"--set={key}={json.dumps(value)}" for key, value in overrides.items()]
+    return main(["run", str(scene), "--out", str(tmp_path / "noisy"), "--quiet", *options] + settings)
 
 
 def test_run_stores_the_toughness_field_and_resume_checks_it(tmp_path, capsys):
-    scene = tmp_path / "noisy.toml"
-    scene.write_text(NOISY)
-    assert main(["run", str(scene), "--quiet"]) == 0
+    assert run_noisy(tmp_path, NOISY) == 0
     results = tmp_path / "noisy" / "results.h5"
     grid = Grid(-0.06, 0.06, 24, -0.06, 0.06, 24)
     with h5py.File(results, "r") as f:
@@ -171,31 +166,28 @@ def test_run_stores_the_toughness_field_and_resume_checks_it(tmp_path, capsys):
         item = step.find("Attribute[@Name='toughness']/DataItem")
         assert item.text == "results.h5:/fields/toughness" and item.get("Dimensions") == "1 25 25"
     # Resuming a finished run with the same field is accepted ...
-    assert main(["run", str(scene), "--resume", "--quiet"]) == 0
+    assert run_noisy(tmp_path, NOISY, "--resume") == 0
     # ... one whose stored field this installation would not draw again is refused.
     with h5py.File(results, "r+") as f:
         f["fields/toughness"][0] *= 1.01
     capsys.readouterr()
-    assert main(["run", str(scene), "--resume", "--quiet"]) == 2
+    assert run_noisy(tmp_path, NOISY, "--resume") == 2
     errors = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
     assert len(errors) == 1 and "toughness field" in errors[0]
 
 
-@pytest.mark.parametrize("line, message", [
-    ("toughness_noise = -0.1", "model.toughness_noise = -0.1: must be >= 0"),
-    ("toughness_noise = 3.0", "model.toughness_noise = 3.0: must be in [0, 2]"),
-    ("toughness_noise_length = -1.0", "model.toughness_noise_length = -1.0: must be >= 0"),
-    ("toughness_noise_length = 0.5", "model.toughness_noise_length = 0.5: must be in [0, 0.12] (the domain's size)"),
-    ("toughness_noise_seed = 1.5", "model.toughness_noise_seed = 1.5: must be an integer"),
+@pytest.mark.parametrize("key, value, message", [
+    ("toughness_noise", -0.1, "model.toughness_noise = -0.1: must be >= 0"),
+    ("toughness_noise", 3.0, "model.toughness_noise = 3.0: must be in [0, 2]"),
+    ("toughness_noise_length", -1.0, "model.toughness_noise_length = -1.0: must be >= 0"),
+    ("toughness_noise_length", 0.5, "model.toughness_noise_length = 0.5: must be in [0, 0.12] (the domain's size)"),
+    ("toughness_noise_seed", 1.5, "model.toughness_noise_seed = 1.5: must be an integer"),
 ])
-def test_bad_noise_keys_are_one_line_exit_2(tmp_path, capsys, line, message):
-    scene = tmp_path / "bad.toml"
-    scene.write_text(NOISY.replace("toughness_noise = 0.05", line) if "noise =" in line
-                     else NOISY.replace("toughness_noise_seed = 3", line))
-    assert main(["run", str(scene), "--quiet"]) == 2
+def test_bad_noise_keys_are_one_line_exit_2(tmp_path, capsys, key, value, message):
+    assert run_noisy(tmp_path, {**NOISY, f"model.{key}": value}) == 2
     err = capsys.readouterr().err.strip()
     assert message in err and "\n" not in err
-    assert not (tmp_path / "bad").exists()
+    assert not (tmp_path / "noisy").exists()
 
 
 def test_arms_of_a_drawn_star_about_an_offset_centre():

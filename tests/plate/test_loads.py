@@ -57,7 +57,7 @@ ITO = dict(E=99.8e9, nu=0.3, h=0.1e-6, Gc=toughness_from_KIC(2.2e6, 99.8e9), bon
 
 def test_material_groups_of_the_ito_film():
     m = Material(**ITO)
-    # G~ = 12 Gc (1 - nu^2) / (E h) with Gc = K_IC^2 / E = 48.50 J/m^2: 0.0530 (MODEL.md: of
+    # G~ = 12 Gc (1 - nu^2) / (E h) with Gc = K_IC^2 / E = 48.50 J/m^2: 0.0530 (docs/model.md#physical-units: of
     # order 5e-2, not the printed 5e-3).
     assert m.Gc == pytest.approx(48.497, rel=1e-4)
     assert m.G_tilde == pytest.approx(0.05303, rel=1e-3)

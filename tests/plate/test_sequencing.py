@@ -7,8 +7,10 @@ import pytest
 
 from thinfilm.plate.grid import Grid
 from thinfilm.run import run
-from thinfilm.scene import SceneError, load_scene, parse_scene
+from thinfilm.scene import SceneError
 from thinfilm.plate.sequencing import CoarseDamage
+
+from tests.helpers import load_case
 
 
 def _write_results(path, grid, t_values, alphas):
@@ -56,29 +58,9 @@ def test_coarse_damage_1d_and_dimension_check(tmp_path):
         CoarseDamage(tmp_path / "c.h5", Grid.rectangle(0, 1, 4, 0, 1, 4))
 
 
-STRIP = """
-[model]
-kind = "plate"
-at = 1
-nu = 0.3
-lam = 31.62
-toughness = 1.0
-eta = 0.008333333333333333
-k_res = 1e-6
-
-[domain]
-x = [-0.5, 0.5]
-y = [-0.1, 0.1]
-cells = CELLS
-
-[load]
-kind = "bending"
-t_max = 6.5
-steps = 13
-
-[solver]
-acceleration = "overrelax"
-"""
+#: The Fig. 2.7 strip (``cases/fig2_7.toml``) with eta = 1/120 fixed and no backtracking, to t = 6.5.
+STRIP = {"model.eta_dx": None, "model.eta": 1 / 120, "load.t_max": 6.5, "load.steps": 13,
+         "solver.backtrack": "none"}
 
 
 @pytest.fixture(scope="module")
@@ -87,14 +69,9 @@ def strip_runs(tmp_path_factory):
     cells, and on 300 x 60 both from its previous steps and from the 200 x 40 run."""
     root = tmp_path_factory.mktemp("sequencing")
     runs = {}
-    for name, cells, coarse in (("coarse", "[200, 40]", None), ("plain", "[300, 60]", None),
-                                ("sequenced", "[300, 60]", "coarse/results.h5")):
-        text = STRIP.replace("CELLS", cells)
-        if coarse:
-            text += f'coarse = "{coarse}"\n'
-        scene_path = root / f"{name}.toml"
-        scene_path.write_text(text)
-        run(load_scene(scene_path), root / name)
+    for name, cells, coarse in (("coarse", [200, 40], None), ("plain", [300, 60], None),
+                                ("sequenced", [300, 60], str(root / "coarse" / "results.h5"))):
+        run(load_case("fig2_7", {**STRIP, "domain.cells": cells, "solver.coarse": coarse}), root / name)
         with h5py.File(root / name / "results.h5", "r") as f:
             runs[name] = {key: f["steps"][key][()] for key in ("t", "total", "iterations")}
             runs[name]["alpha"] = f["fields/alpha"][-1]
@@ -125,15 +102,15 @@ def test_sequenced_strip_cracks_where_the_exact_solution_does(strip_runs):
 
 
 def test_coarse_key_errors(tmp_path):
-    text = STRIP.replace("CELLS", "[30, 6]")
+    strip = {**STRIP, "domain.cells": [30, 6]}
     with pytest.raises(SceneError, match=r"solver\.coarse.*no such file"):
-        parse_scene(text + 'coarse = "missing.h5"\n', source=str(tmp_path / "s.toml"))
+        load_case("fig2_7", {**strip, "solver.coarse": str(tmp_path / "missing.h5")})
     with pytest.raises(SceneError, match=r"solver\.coarse.*must be the path"):
-        parse_scene(text + "coarse = 3\n", source=str(tmp_path / "s.toml"))
+        load_case("fig2_7", {**strip, "solver.coarse": 3})
     coarse = Grid.rectangle(-0.5, 0.5, 10, -0.1, 0.1, 2)
     _write_results(tmp_path / "other.h5", coarse, [0.0], [np.zeros(coarse.n_nodes)])
     with h5py.File(tmp_path / "other.h5", "a") as f:
         f.create_group("parameters").attrs.update({"at": 1, "nu": 0.3, "lam": 31.62, "toughness": 1.0,
                                                    "eta": 0.01, "load": "bending"})
     with pytest.raises(SceneError, match=r"solver\.coarse.*eta = 0\.01"):
-        parse_scene(text + 'coarse = "other.h5"\n', source=str(tmp_path / "s.toml"))
+        load_case("fig2_7", {**strip, "solver.coarse": str(tmp_path / "other.h5")})

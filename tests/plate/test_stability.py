@@ -1,6 +1,8 @@
 """The stability check: the reduced energy's Hessian against second differences of the
 reduced energy itself, its eigenpairs, and an evolution that leaves a symmetric saddle."""
 
+import json
+
 import h5py
 import numpy as np
 import pytest
@@ -12,6 +14,8 @@ from thinfilm.plate.grid import Grid
 from thinfilm.solvers.linear import make_solver
 from thinfilm.plate.model import crack_profile
 from thinfilm.plate.operators import DamageOperator, PlateOperator
+
+from tests.helpers import CASES
 
 # The small indenter of Fig. 2.14 (R = 0.1, winkler = 6.4e7, G/a = 1.5) at t = 0.06, on a
 # coarse grid, with a damage spot a little off the centre (no symmetry to hide errors).
@@ -105,40 +109,27 @@ def test_no_free_nodes_means_nothing_to_check():
 
 # The Fig. 2.14 scene (G/a = 1.5) on a coarse grid up to the load where its D4-symmetric
 # disk of damage is a saddle (t = 0.065): with the check the evolution leaves it.
-SCENE = """
-[model]
-kind = "plate"
-at = 1
-nu = 0.3
-winkler = 6.4e7
-toughness = 1.5
-eta = 0.005
-k_res = 1e-6
-[domain]
-x = [-0.1, 0.1]
-y = [-0.1, 0.1]
-cells = [80, 80]
-[load]
-kind = "indenter"
-radius = 0.1
-t_max = 0.065
-steps = 13
-[solver]
-acceleration = "overrelax"
-"""
+#: The small indenter at G/a = 1.5 (``cases/indentation_branching_G15.toml``) on a quarter of its
+#: domain, to the load where its symmetric disk of damage is a saddle.
+OVERRIDES = {"domain.x": [-0.1, 0.1], "domain.y": [-0.1, 0.1], "domain.cells": [80, 80], "load.t_max": 0.065,
+             "load.steps": 13, "output.snapshots": [0.03, 0.065]}
 
 
-def _run(tmp_path, name, text):
-    scene = tmp_path / f"{name}.toml"
-    scene.write_text(text)
-    assert main(["run", str(scene), "--out", str(tmp_path / name), "--quiet"]) == 0
+def _settings(overrides):
+    """The overrides as ``--set`` options of the command line."""
+    return [f"--set={key}={json.dumps(value)}" for key, value in overrides.items()]
+
+
+def _run(tmp_path, name, overrides):
+    scene = CASES / "indentation_branching_G15.toml"
+    assert main(["run", str(scene), "--out", str(tmp_path / name), "--quiet"] + _settings(overrides)) == 0
     with h5py.File(tmp_path / name / "results.h5", "r") as f:
         return {k: v[()] for k, v in f["steps"].items()}, f["fields/alpha"][-1].reshape(81, 81)
 
 
 def test_the_evolution_leaves_a_symmetric_saddle(tmp_path, capsys):
-    plain_steps, plain_alpha = _run(tmp_path, "plain", SCENE)
-    steps, alpha = _run(tmp_path, "checked", SCENE + "stability = true\n")
+    plain_steps, plain_alpha = _run(tmp_path, "plain", OVERRIDES)
+    steps, alpha = _run(tmp_path, "checked", {**OVERRIDES, "solver.stability": True})
     # Without the check: a disk of damage, symmetric under the square's rotations, no curvature.
     assert np.abs(plain_alpha - plain_alpha.T).max() < 1e-6
     assert np.all(np.isnan(plain_steps["lowest_curvature"]))
@@ -159,13 +150,12 @@ def test_the_evolution_leaves_a_symmetric_saddle(tmp_path, capsys):
     assert f"stability: {int(steps['saddles_left'].sum())} saddle(s) left" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("line, key", [('stability = true\n', "solver.stability"),
-                                       ('stability_tol = -1\n', "solver.stability_tol")])
-def test_bad_stability_options(tmp_path, capsys, line, key):
-    text = SCENE.replace('cells = [80, 80]', 'cells = [80, 80]\nsymmetry = "d4"') if "true" in line else SCENE
-    scene = tmp_path / "bad.toml"
-    scene.write_text(text + line)
-    assert main(["run", str(scene), "--out", str(tmp_path / "out"), "--quiet"]) == 2
+@pytest.mark.parametrize("overrides, key", [({"solver.stability": True, "domain.symmetry": "d4"}, "solver.stability"),
+                                            ({"solver.stability_tol": -1}, "solver.stability_tol")])
+def test_bad_stability_options(tmp_path, capsys, overrides, key):
+    scene = CASES / "indentation_branching_G15.toml"
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--quiet"] + _settings({**OVERRIDES, **overrides})) == 2
     err = capsys.readouterr().err.strip()
     assert key in err and "\n" not in err
-    assert not (tmp_path / "out").exists()
+    assert not out.exists()

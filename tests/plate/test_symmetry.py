@@ -3,6 +3,7 @@ symmetric fields: the orbits, the Galerkin reduction ``P^T K P`` against an expl
 the reduced u-solve against the full one, a whole ring step against the unreduced model,
 and the scene checks that refuse a symmetry the scene does not have."""
 
+import json
 
 import numpy as np
 import pytest
@@ -14,19 +15,13 @@ from thinfilm.plate.kind import build_grid, make_model
 from thinfilm.scene import SceneError, parse_scene
 from thinfilm.plate.symmetry import GridSymmetry
 
-from tests.helpers import CASES  # noqa: E402
+from tests.helpers import CASES, load_case
 
 
-def with_symmetry(name, group, **lines):
-    """The case file ``name`` with ``[domain] symmetry = group`` and ``key = value`` lines replaced."""
-    text = (CASES / name).read_text()
-    for key, value in lines.items():
-        old = [line for line in text.splitlines() if line.split("=")[0].strip() == key]
-        assert len(old) == 1, f"{name}: no single line for {key}"
-        text = text.replace(old[0], f"{key} = {value}")
-    cells = next(line for line in text.splitlines() if line.startswith("cells"))
-    text = text.replace(cells, f'{cells}\nsymmetry = "{group}"')
-    return parse_scene(text, source=name)
+
+def with_symmetry(name, group, overrides=None):
+    """The case file ``cases/<name>.toml`` with ``[domain] symmetry = group`` and ``overrides``."""
+    return load_case(name, {"domain.symmetry": group, **(overrides or {})})
 
 
 def explicit_P(sym):
@@ -99,9 +94,8 @@ def test_reduced_matrix_is_P_transpose_K_P():
 def test_reduced_u_solve_equals_the_full_solve(linear):
     # Symmetric damage and load: the minimizer over all u is symmetric, so the Galerkin
     # restriction to symmetric u must return it to round-off (AMG: to its tolerance).
-    solver = f'"overrelax"\nlinear = "{linear}"'
-    full = make_model_of(with_symmetry("indentation.toml", "none", cells="[60, 60]", acceleration=solver))
-    reduced = make_model_of(with_symmetry("indentation.toml", "d4", cells="[60, 60]", acceleration=solver))
+    full = make_model_of(with_symmetry("indentation", "none", {"domain.cells": [60, 60], "solver.linear": linear}))
+    reduced = make_model_of(with_symmetry("indentation", "d4", {"domain.cells": [60, 60], "solver.linear": linear}))
     assert reduced.symmetry.n_orbits == 31 * 32 // 2
     x, y = full.grid.coordinates
     r = np.hypot(x, y)
@@ -168,8 +162,7 @@ def test_plate_operator_is_invariant_and_the_restriction_is_exact(load, x, y, ce
 def test_search_and_backtracking_keep_the_restriction():
     # A 1D film with the nucleation search and backtracking, restricted to even fields: every
     # step's damage is symmetric and irreversible, and the film cracks.
-    text = (CASES / "fig2_5.toml").read_text().replace("cells = 800", 'cells = 200\nsymmetry = "mirror_x"')
-    scene = parse_scene(text.replace("steps = 100", "steps = 40"), source="fig2_5.toml")
+    scene = load_case("fig2_5", {"domain.cells": 200, "domain.symmetry": "mirror_x", "load.steps": 40})
     model = make_model_of(scene)
     engine = Engine.from_options(model, scene.solver)
     t = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
@@ -183,7 +176,7 @@ def test_search_and_backtracking_keep_the_restriction():
 def test_asymmetric_initial_damage_is_raised_to_its_orbit_maximum():
     # Engine.run with an initial damage that is not symmetric: the bound of the first step is
     # its orbit maximum, so that no asymmetric alpha reaches the restricted u-solve.
-    model = make_model_of(with_symmetry("indentation.toml", "d4", cells="[40, 40]"))
+    model = make_model_of(with_symmetry("indentation", "d4", {"domain.cells": [40, 40]}))
     seen = []
     solve_u = model.solve_u
     model.solve_u = lambda alpha, *args: seen.append(model.symmetry.asymmetry(alpha)) or solve_u(alpha, *args)
@@ -200,7 +193,7 @@ def test_symmetric_ring_step_follows_the_unreduced_one():
     # the same ring and energy (the unreduced one drifts from symmetry only by round-off).
     runs = {}
     for group in ("none", "d4"):
-        model = make_model_of(with_symmetry("indentation.toml", group, cells="[100, 100]", eta="0.016"))
+        model = make_model_of(with_symmetry("indentation", group, {"domain.cells": [100, 100], "model.eta": 0.016}))
         engine = Engine(model, AltMinOptions(tol=1e-4, acceleration="overrelax", omega=4.0))
         record = StepRecord(6, 0.3)
         zero = np.zeros(model.n_alpha)
@@ -214,7 +207,7 @@ def test_symmetric_ring_step_follows_the_unreduced_one():
 
 
 def test_trial_cracks_come_with_their_mirror_images():
-    model = make_model_of(with_symmetry("indentation.toml", "d4", cells="[40, 40]"))
+    model = make_model_of(with_symmetry("indentation", "d4", {"domain.cells": [40, 40]}))
     sym = model.symmetry
     u = model.solve_u(np.zeros(model.n_alpha), 0.3, None, 1e-10)
     nodes = model.candidates(u, np.zeros(model.n_alpha), 0.3)
@@ -223,27 +216,27 @@ def test_trial_cracks_come_with_their_mirror_images():
     assert trials and all(sym.asymmetry(a) == 0.0 for a in trials)
 
 
-@pytest.mark.parametrize("name, group, lines, key, words", [
-    ("indentation.toml", "d4", {"cells": "[320, 300]"}, "domain.symmetry", "square"),
-    ("indentation.toml", "d4", {"y": "[-0.4, 0.3]"}, "domain.symmetry", "square"),
-    ("indentation.toml", "rotation", {}, "domain.symmetry", '"none", "mirror_x"'),
+@pytest.mark.parametrize("name, group, overrides, key, words", [
+    ("indentation", "d4", {"domain.cells": [320, 300]}, "domain.symmetry", "square"),
+    ("indentation", "d4", {"domain.y": [-0.4, 0.3]}, "domain.symmetry", "square"),
+    ("indentation", "rotation", {}, "domain.symmetry", '"none", "mirror_x"'),
 ])
-def test_scene_refuses_a_symmetry_of_another_grid(name, group, lines, key, words):
+def test_scene_refuses_a_symmetry_of_another_grid(name, group, overrides, key, words):
     with pytest.raises(SceneError) as err:
-        with_symmetry(name, group, **lines)
+        with_symmetry(name, group, overrides)
     assert err.value.key == key and words in str(err.value)
 
 
 def test_symmetry_the_load_or_clamp_does_not_have_is_refused():
     # The cantilever is clamped at x = 0: mirroring x would clamp x = 1 as well.
-    scene = with_symmetry("cantilever_6e6.toml", "mirror_x", cells="[40, 4]")
+    scene = with_symmetry("cantilever_6e6", "mirror_x", {"domain.cells": [40, 4]})
     with pytest.raises(SceneError) as err:
         make_model_of(scene)
     assert err.value.key == "domain.symmetry" and "clamped edges (x0)" in str(err.value)
     # Mirroring y is a symmetry of the cantilever's grid, clamp and load.
-    assert make_model_of(with_symmetry("cantilever_6e6.toml", "mirror_y", cells="[40, 4]")).symmetry.n_orbits == 41 * 3
+    assert make_model_of(with_symmetry("cantilever_6e6", "mirror_y", {"domain.cells": [40, 4]})).symmetry.n_orbits == 41 * 3
     # An indenter off the centre of the domain is not invariant under its mirrors.
-    scene = with_symmetry("indentation.toml", "d2", cells="[40, 40]", x="[-0.4, 0.5]", y="[-0.4, 0.5]")
+    scene = with_symmetry("indentation", "d2", {"domain.cells": [40, 40], "domain.x": [-0.4, 0.5], "domain.y": [-0.4, 0.5]})
     with pytest.raises(SceneError) as err:
         make_model_of(scene)
     assert err.value.key == "domain.symmetry" and "not invariant" in str(err.value)
@@ -252,11 +245,10 @@ def test_symmetry_the_load_or_clamp_does_not_have_is_refused():
 def test_command_line_refuses_a_symmetry_in_one_line_and_writes_nothing(tmp_path, capsys):
     from thinfilm.cli import main
 
-    text = (CASES / "indentation.toml").read_text().replace("x = [-0.4, 0.4]", "x = [-0.4, 0.5]")
-    text = text.replace("y = [-0.4, 0.4]", "y = [-0.4, 0.5]").replace("cells = [320, 320]", 'cells = [40, 40]\nsymmetry = "d2"')
     scene = tmp_path / "off_centre.toml"
-    scene.write_text(text)
-    assert main(["run", str(scene)]) == 2
+    scene.write_text((CASES / "indentation.toml").read_text())
+    overrides = {"domain.x": [-0.4, 0.5], "domain.y": [-0.4, 0.5], "domain.cells": [40, 40], "domain.symmetry": "d2"}
+    assert main(["run", str(scene)] + [f"--set={key}={json.dumps(value)}" for key, value in overrides.items()]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "domain.symmetry" in err[0] and "not invariant" in err[0], err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["off_centre.toml"]

@@ -38,7 +38,7 @@ def plate_test_matrix(alpha, *, nu=0.3, winkler=4e6, k_res=1e-6, length=1.0):
     ``W = u_xx^2 + u_yy^2 + 2 nu u_xx u_yy + 2 (1 - nu) u_xy^2``, ``g = (1 - alpha)^2 + k_res``,
     discretized by second differences where they exist (free edges), the mixed derivative
     on cells, and the edge-row density ``(1 - nu^2) u_tt^2`` where the normal second difference
-    is missing (SOLVER_NOTES.md). A 13-point stencil; SPD for ``winkler > 0``; without the
+    is missing (docs/model.md#free-and-clamped-edges). A 13-point stencil; SPD for ``winkler > 0``; without the
     foundation its null space is exactly {1, x, y}.
 
     Parameters

@@ -1,6 +1,6 @@
 """Tests of the bound-constrained damage solver :mod:`thinfilm.solvers.boxqp`.
 
-The AT1 and AT2 damage problems are built here from the energy of MODEL.md, at fixed
+The AT1 and AT2 damage problems are built here from the energy of docs/model.md, at fixed
 elastic density ``W`` (the alpha-step of alternate minimization), per unit area on a
 grid of spacing ``dx``::
 

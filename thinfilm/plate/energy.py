@@ -5,7 +5,7 @@ The discrete energy ``E_h(u, alpha) = P_h(u, alpha, w) + S_h(alpha)`` is defined
 These functions evaluate it; they take the operator objects of that module, which hold the
 grid, the parameters and the boundary conditions.
 
-Units: non-dimensional (MODEL.md); lengths in units of L, energies per the scaling of (2.14).
+Units: non-dimensional (``docs/model.md#continuous-energy``); lengths in units of L, energies per the scaling of (2.14).
 Values of ``u`` on clamped nodes are ignored (taken as 0).
 """
 

@@ -1,4 +1,4 @@
-"""Substrate displacements ``w_t``: the loads of the thin-film scenes (MODEL.md, chapter 2).
+"""Substrate displacements ``w_t``: the loads of the thin-film scenes (``docs/model.md#loads``).
 
 Each load is a :class:`Load`: a function ``t -> w_t`` at the grid nodes, whether it is
 proportional to ``t`` (then the minimizing ``u`` scales with ``t`` at fixed damage, which

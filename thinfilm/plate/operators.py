@@ -4,8 +4,8 @@ The discrete energy comes first; the matrices are its exact Hessians, so the u-m
 symmetric, positive definite whenever ``winkler > 0`` (for every ``alpha`` and ``k_res >= 0``),
 and the boundary conditions of free edges are natural.
 
-Discrete energy (non-dimensional, MODEL.md)
-===========================================
+Discrete energy (non-dimensional, docs/model.md)
+================================================
 On a :class:`~thinfilm.plate.grid.Grid` with spacings ``hx``, ``hy``, trapezoidal node weights
 ``omega_n = omega_x_i omega_y_j`` (``h`` inside, ``h/2`` on the boundary) and nodal degradation
 ``g_n = (1 - alpha_n)^2 + k_res``::
@@ -40,7 +40,7 @@ with, at node ``n = (i, j)``,
   for the exact solution, and is dropped. At a free-free corner both moments vanish, so
   ``u_xx = u_yy = 0`` there. This closure is second-order accurate; simply dropping the
   missing differences (density ``a^2`` on a y-edge) is first order for ``nu > 0``
-  (SOLVER_NOTES.md; measured again in ``tests/test_plate_convergence.py``).
+  (``docs/solvers.md#free-edges-of-the-plate``; measured again in ``tests/plate/test_convergence.py``).
 
 Clamped edges (``u = 0``, ``du/dn = 0``) use a mirrored ghost node: on a clamped edge
 ``x = x0`` the missing ``u_{-1,j}`` equals ``u_{1,j}``, so ``a_{0,j} = 2 (u_{1,j} - u_{0,j}) / hx^2``
@@ -74,7 +74,7 @@ energy (``P_bending = 1/2 sum_n g_n e_n``; see :func:`thinfilm.plate.energy.bend
     const = 1/2 (1 + k_res) sum_n e_n + foundation energy.
 
 All fields follow the flattening convention of :mod:`thinfilm.plate.grid`. Lengths are in units
-of the domain size L, energies in the non-dimensional units of MODEL.md.
+of the domain size L, energies in the non-dimensional units of ``docs/model.md``.
 """
 
 from __future__ import annotations

@@ -30,7 +30,7 @@ __all__ = ["PlateParameters", "Domain", "PlateLoad", "PlateScene", "parse"]
 
 @dataclass(frozen=True)
 class PlateParameters:
-    """Material and regularization of the thin-film model (non-dimensional, MODEL.md).
+    """Material and regularization of the thin-film model (non-dimensional: ``docs/model.md#continuous-energy``).
 
     Attributes
     ----------

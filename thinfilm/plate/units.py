@@ -1,6 +1,6 @@
 """Physical units: a film's material and geometry -> the non-dimensional groups (2.13).
 
-The solver works with the non-dimensional energy of MODEL.md (lengths in units of ``L``), whose
+The solver works with the non-dimensional energy of ``docs/model.md`` (lengths in units of ``L``), whose
 parameters are ``winkler = K~ / a^4`` and ``toughness = G~ / a`` with
 
     K~ = 12 K_b h (1 - nu^2) / E,    G~ = 12 Gc (1 - nu^2) / (E h),    a = h / L,
@@ -11,7 +11,7 @@ stiffness ``K_b`` per unit area, and the length ``L`` that the domain's coordina
 measured in. The flexural rigidity is ``D = E h^3 / (12 (1 - nu^2))``.
 
 For the ITO film of the dissertation's Table 2.1 (E = 99.8 GPa, K_IC = 2.2 MPa sqrt(m),
-h = 0.1 um, nu = 0.3), (2.13) gives G~ = 0.053, ten times the printed 5e-3 (MODEL.md);
+h = 0.1 um, nu = 0.3), (2.13) gives G~ = 0.053, ten times the printed 5e-3 (``docs/model.md#physical-units``);
 ``cases/ito_indentation.toml`` uses the formula.
 """
 

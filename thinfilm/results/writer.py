@@ -121,8 +121,8 @@ class ResultsWriter:
             stored = self.file.attrs.get("scene", "")
             if stored != scene.text or self.file.attrs.get("scene_overrides", None) != getattr(scene, "overrides", None):
                 self.file.close()
-                raise ResumeError(f"{self.path} was written by a different scene text; it cannot be resumed"
-                                  " (run with --force to start over)")
+                raise ResumeError(f"{self.path} was written by a different scene (its text or its --set"
+                                  " overrides differ); it cannot be resumed (run with --force to start over)")
             for name, values in constant.items():
                 if not np.array_equal(self.file["fields"][name][()], values):
                     self.file.close()
