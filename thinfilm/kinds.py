@@ -48,8 +48,12 @@ class ModelKind(Protocol):
     def plot(self, results, outdir, loads=None, animate: bool = False) -> list:
         """Draw every figure of a results file of this kind; return their paths."""
 
-    def info(self, f) -> list[str]:
-        """Lines of ``thinfilm info`` particular to this kind (the open HDF5 file ``f``)."""
+    def info(self, f, steps: dict) -> list[str]:
+        """Lines of ``thinfilm info`` particular to this kind (the open HDF5 file ``f`` and its
+        finished steps' records ``steps``)."""
+
+    # Optional: ``compare(results, outdir) -> (paths, lines)``, the run drawn against an exact
+    # counterpart (``thinfilm compare``; the film against the exact 1D evolution).
 
 
 #: Kinds that ship with the toolkit: name -> module that defines ``KIND``.
