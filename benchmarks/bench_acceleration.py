@@ -10,10 +10,10 @@ four iterations), so it is where an acceleration shows. The step is solved with
 iterations, u-solves, rejected extrapolations, wall and CPU time, the final energy and the
 cracks along y = 0 of each. Each grid's plain run is the baseline of its ratios.
 
-Usage::
+Usage (from the repository root)::
 
-    python benchmarks/bench_acceleration.py            # three grids, about 5 minutes
-    python benchmarks/bench_acceleration.py --cells 300
+    python -m benchmarks.bench_acceleration            # three grids, about 5 minutes
+    python -m benchmarks.bench_acceleration --cells 300
 
 Writes ``benchmarks/results/acceleration.md`` and ``.csv``.
 """
@@ -24,20 +24,17 @@ import argparse
 import csv
 import os
 import platform
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
+from thinfilm.engine import AltMinOptions, Engine, StepRecord
+from thinfilm.plate.cracks import centre_line, crack_positions
+from thinfilm.plate.kind import build_grid, make_model
+from thinfilm.scene import parse_scene
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # run from a checkout
-
-from thinfilm.plate.cracks import centre_line, crack_positions  # noqa: E402
-from thinfilm.engine import AltMinOptions, Engine, StepRecord  # noqa: E402
-from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
-from thinfilm.scene import parse_scene  # noqa: E402
-
 RESULTS = ROOT / "benchmarks" / "results"
 T_NUCLEATION = 6.5
 
@@ -102,7 +99,7 @@ def main(argv=None):
     lines = [
         "# Over-relaxed against plain alternate minimization: the Fig. 2.7 strip's nucleation step",
         "",
-        f"Command: `python benchmarks/bench_acceleration.py`. {total / 60:.1f} min wall in all.",
+        f"Command: `python -m benchmarks.bench_acceleration`. {total / 60:.1f} min wall in all.",
         f"Machine: {os.cpu_count()} cores, {platform.machine()}, Python {platform.python_version()};"
         f" 1-min load average at the end {load:.2f} (shared machine: wall times vary).",
         "",

@@ -18,10 +18,10 @@ width 2 dx) on a sub-critical smooth background. AT2 uses the same field.
 Writes ``benchmarks/results/damage.csv`` and ``damage.md``. Every solve is repeated
 ``--repeat`` times and the fastest is reported (the machine may be shared).
 
-Usage::
+Usage (from the repository root)::
 
-    python benchmarks/bench_damage.py                       # the full table (~3 min)
-    python benchmarks/bench_damage.py --at1 250 500 --at2 250 --repeat 1
+    python -m benchmarks.bench_damage                       # the full table (~3 min)
+    python -m benchmarks.bench_damage --at1 250 500 --at2 250 --repeat 1
 """
 
 from __future__ import annotations
@@ -38,8 +38,7 @@ import numpy as np
 import scipy
 import scipy.sparse as sp
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from thinfilm.solvers.boxqp import kkt_residual, solve_box_qp  # noqa: E402
+from thinfilm.solvers.boxqp import kkt_residual, solve_box_qp
 
 C_M = {1: 2.0 / 3.0, 2: 0.5}
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -193,7 +192,7 @@ def main(argv=None):
     parser.add_argument("--repeat", type=int, default=3, help="repeats per solve (min taken)")
     args = parser.parse_args(argv)
     given = sys.argv[1:] if argv is None else argv
-    command = "python benchmarks/bench_damage.py " + " ".join(given)
+    command = "python -m benchmarks.bench_damage " + " ".join(given)
     load_before = " ".join(f"{x:.2f}" for x in os.getloadavg())
 
     # Compile (or load from cache) the Numba kernels outside the timings.

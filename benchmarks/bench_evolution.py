@@ -45,11 +45,11 @@ Accepted search trials are counted as they happen (``engine.work["trials_accepte
 step whose search finds a crack is usually undone by the backtrack that crack triggers,
 and its StepRecord, with its ``trials_accepted``, is dropped.
 
-Usage::
+Usage (from the repository root)::
 
-    python benchmarks/bench_evolution.py                       # everything, ~40 min
-    python benchmarks/bench_evolution.py --quick               # a subset, ~5 min
-    python benchmarks/bench_evolution.py --cases fig2_5 fig2_6 # rows are merged into the CSV
+    python -m benchmarks.bench_evolution                       # everything, ~40 min
+    python -m benchmarks.bench_evolution --quick               # a subset, ~5 min
+    python -m benchmarks.bench_evolution --cases fig2_5 fig2_6 # rows are merged into the CSV
 
 Writes ``benchmarks/results/evolution.csv`` (one row per run, merged by run), ``evolution.md``
 and ``evolution.png``, and ``evolution.json`` (every run's step data, for merging later
@@ -75,7 +75,6 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
 CASES_DIR = ROOT / "cases"
-sys.path.insert(0, str(ROOT))  # run from a checkout
 
 CASES = ("fig2_5", "fig2_7", "fig2_6")
 #: The film of each case for the exact solution: (x0, x1, width); lam and G/a from the scene.
@@ -145,8 +144,10 @@ def make_scene(spec, cells=None, steps=None):
     cells = tuple(spec["cells"] if cells is None else cells)
     domain = dataclasses.replace(scene.domain, cells=cells)
     model = dataclasses.replace(scene.model, eta=float(spec["eta"]))
-    solver = dataclasses.replace(scene.solver, acceleration=spec["acceleration"], search=bool(spec["search"]),
-                                 backtrack=spec["backtrack"])
+    options = scene.solver
+    solver = dataclasses.replace(options, altmin=dataclasses.replace(options.altmin, acceleration=spec["acceleration"]),
+                                 search=dataclasses.replace(options.search, enabled=bool(spec["search"])),
+                                 backtrack=dataclasses.replace(options.backtrack, kind=spec["backtrack"]))
     load = scene.load if steps is None else dataclasses.replace(scene.load, steps=steps)
     return dataclasses.replace(scene, domain=domain, model=model, solver=solver, load=load)
 
@@ -273,13 +274,13 @@ def worker(spec):
 # ------------------------------------------------------------------------------------------
 
 def run_spec(spec, timeout):
-    cmd = [sys.executable, __file__, "--worker", json.dumps(spec)]
+    cmd = [sys.executable, "-m", "benchmarks.bench_evolution", "--worker", json.dumps(spec)]
     env = dict(os.environ, PYTHONWARNINGS="ignore")
     env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
     load_before = os.getloadavg()[0]
     start = time.perf_counter()
     try:
-        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=ROOT)
     except subprocess.TimeoutExpired as exc:
         out = exc.stdout or b""
         out = out.decode(errors="replace") if isinstance(out, bytes) else out
@@ -777,7 +778,7 @@ def main(argv=None):
         print((RESULTS / "evolution.md").read_text())
         return
     given = sys.argv[1:] if argv is None else argv
-    command = ("python benchmarks/bench_evolution.py " + " ".join(given)).strip()
+    command = ("python -m benchmarks.bench_evolution " + " ".join(given)).strip()
     specs = plan(args.cases, args.quick)
     old_rows, old_specs = ({}, []) if args.fresh else load_old_rows()
     all_specs = list(old_specs)

@@ -6,9 +6,9 @@ event located by bisection to a relative 1e-13) with the Numba kernels of
 algorithm, line for line), in the same run, for the grid and the refined track. Both must
 find the same events. Writes ``benchmarks/results/exact1d.md`` and ``.csv``.
 
-Usage::
+Usage (from the repository root)::
 
-    python benchmarks/bench_exact1d.py [--repeat 5] [--cells 1000]
+    python -m benchmarks.bench_exact1d [--repeat 5] [--cells 1000]
 """
 
 import argparse

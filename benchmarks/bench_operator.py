@@ -4,9 +4,9 @@ For 1000^2 and 1500^2 nodes: building the CSR pattern, writing the values of K(a
 it, the matrix-free apply against the CSR matvec, and the bending-density and energy
 kernels. Writes ``benchmarks/results/operator.md``.
 
-Usage::
+Usage (from the repository root)::
 
-    python benchmarks/bench_operator.py [--sizes 1000 1500] [--repeat 7]
+    python -m benchmarks.bench_operator [--sizes 1000 1500] [--repeat 7]
 """
 
 import argparse
@@ -18,7 +18,6 @@ import numpy as np
 
 from thinfilm.plate import energy
 from thinfilm.plate.grid import Grid
-from thinfilm.plate.kernels import stencil as kernels
 from thinfilm.plate.operators import PlateOperator
 
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -3,7 +3,7 @@ damage part of the Hessian (:func:`thinfilm.plate.stability.lowest_modes`) again
 Lanczos iteration on the same operator.
 
 The states are those of the small indenter's perfect film (G/a = 1.5, eta = 5 dx, 360 x 360
-cells, the D4-restricted evolution of ``bench_symmetric_saddles.py``) at t = 0.06 and 0.065,
+cells, the D4-restricted evolution of :mod:`studies.branching.saddles`) at t = 0.06 and 0.065,
 where the disk of damage is a saddle. For each, the four lowest curvatures of the reduced
 energy are computed by
 
@@ -14,33 +14,34 @@ energy are computed by
 and the table lists Hessian products (one u-solve each), seconds and the largest error of
 the four eigenvalues against the reference, in units of G/(a eta).
 
-Usage::
+The scene is ``cases/indentation_branching_G15.toml`` on the grid of
+:data:`studies.branching.scenes.FINE`, as :func:`studies.branching.imperfect.scene` builds it.
 
-    python benchmarks/bench_stability.py      # about 5 minutes
+Usage (from the repository root)::
 
-Writes ``benchmarks/results/stability.md`` and ``.csv``.
+    python -m benchmarks.bench_stability      # about 5 minutes
+
+Writes ``benchmarks/results/stability.md`` and ``.csv`` (``--out`` another folder).
 """
 
 from __future__ import annotations
 
+import argparse
 import csv
 import platform
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import scipy.sparse.linalg as spla
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # run from a checkout
-sys.path.insert(0, str(ROOT / "benchmarks"))
+from studies.branching.imperfect import scene as branching_scene
+from studies.branching.scenes import FINE
+from thinfilm.engine import Engine
+from thinfilm.plate import stability
+from thinfilm.plate.kind import build_grid, make_model
 
-from bench_imperfect_branching import FINE, scene_text  # noqa: E402
-from thinfilm.plate import stability  # noqa: E402
-from thinfilm.engine import Engine  # noqa: E402
-from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
-from thinfilm.scene import parse_scene  # noqa: E402
+RESULTS = Path(__file__).resolve().parent / "results"
 
 CASE, LOADS, K = "G15", (0.06, 0.065), 4
 
@@ -55,12 +56,15 @@ def lanczos(plate, damage, alpha, w, lower, tol):
     return np.sort(values), problem.solves
 
 
-def main():
-    scene = parse_scene(scene_text(CASE, 0.0, 0, FINE), source=CASE)
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, default=RESULTS)
+    args = parser.parse_args(argv)
+    scene = branching_scene(CASE, 0.0, 0, FINE)
     grid = build_grid(scene.domain)
     t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
     _, states = Engine.from_options(make_model(scene, grid), scene.solver).run(t_values)
-    free_scene = parse_scene(scene_text(CASE, 0.0, 0, FINE, restricted=False), source=CASE)
+    free_scene = branching_scene(CASE, 0.0, 0, FINE, restricted=False)
     model = make_model(free_scene, grid)
     unit = model.damage.toughness / model.eta
     rows = []
@@ -89,7 +93,7 @@ def main():
                          "error": float(np.max(np.abs(values - reference)))})
             print(f"t = {t_values[k]:g} {label}: {rows[-1]['eigenvalues']} ({products} products, {seconds:.1f} s,"
                   f" error {rows[-1]['error']:.1e})", flush=True)
-    out = ROOT / "benchmarks" / "results"
+    out = args.out
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "stability.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
@@ -98,7 +102,7 @@ def main():
     lines = [
         "# The stability check's eigensolver: speed against error",
         "",
-        f"`python benchmarks/bench_stability.py` ({platform.machine()}, Python {platform.python_version()}). "
+        f"`python -m benchmarks.bench_stability` ({platform.machine()}, Python {platform.python_version()}). "
         f"Small indenter, G/a = 1.5, eta = 5 dx, 360^2 cells, the symmetric states at t = {LOADS[0]} and {LOADS[1]}; "
         f"the {K} lowest curvatures of the reduced energy (units of G/(a eta)); error: the largest difference from "
         "the reference's.",

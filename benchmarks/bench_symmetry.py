@@ -15,8 +15,8 @@ same invocation; ``error`` the largest difference of the two u over max |u|, and
 
 Usage (run the main job first: ``python -m thinfilm run cases/indentation.toml``)::
 
-    python benchmarks/bench_symmetry.py                     # 400 800 1500, about 6 minutes
-    python benchmarks/bench_symmetry.py --sizes 400 800
+    python -m benchmarks.bench_symmetry                     # 400 800 1500, about 6 minutes
+    python -m benchmarks.bench_symmetry --sizes 400 800
 
 Writes ``benchmarks/results/symmetry.md`` and ``.csv``.
 """
@@ -37,8 +37,6 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # run from a checkout
-
 RESULTS = ROOT / "benchmarks" / "results"
 COARSE = ROOT / "cases" / "indentation" / "results.h5"
 T_LOAD = 0.7
@@ -116,7 +114,7 @@ def main(argv=None):
     lines = [
         "# u-solve restricted to D4-symmetric fields (indentation, t = 0.7 damage)",
         "",
-        f"`python benchmarks/bench_symmetry.py --sizes {' '.join(map(str, args.sizes))}`;"
+        f"`python -m benchmarks.bench_symmetry --sizes {' '.join(map(str, args.sizes))}`;"
         f" {platform.machine()}, {os.cpu_count()} cores. ratio: unrestricted u-solve time / this one;"
         " error: max |u_d4 - u| / max |u|.",
         "",

@@ -11,8 +11,8 @@ time, the final energy and the largest difference of the final damage.
 
 Usage (run the main job first: ``python -m thinfilm run cases/indentation.toml``)::
 
-    python benchmarks/bench_tail.py               # about 8 minutes on 2 cores
-    python benchmarks/bench_tail.py --cells 480
+    python -m benchmarks.bench_tail               # about 8 minutes on 2 cores
+    python -m benchmarks.bench_tail --cells 480
 
 Writes ``benchmarks/results/tail.md`` and ``.csv``.
 """
@@ -30,15 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
+from thinfilm.engine import Engine, StepRecord
+from thinfilm.plate.kind import build_grid, make_model
+from thinfilm.plate.sequencing import CoarseDamage
+from thinfilm.scene import parse_scene
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # run from a checkout
-
-from thinfilm.engine import StepRecord  # noqa: E402
-from thinfilm.engine import Engine  # noqa: E402
-from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
-from thinfilm.scene import parse_scene  # noqa: E402
-from thinfilm.plate.sequencing import CoarseDamage  # noqa: E402
-
 RESULTS = ROOT / "benchmarks" / "results"
 COARSE = ROOT / "cases" / "indentation" / "results.h5"
 T_RING, T_BEFORE = 0.25, 0.2
@@ -95,7 +92,7 @@ def main(argv=None):
         writer = csv.DictWriter(fh, fieldnames=list(base))
         writer.writeheader()
         writer.writerows(rows)
-    command = "python benchmarks/bench_tail.py" + (f" --cells {args.cells}" if args.cells != 640 else "")
+    command = "python -m benchmarks.bench_tail" + (f" --cells {args.cells}" if args.cells != 640 else "")
     lines = ["# Tail extrapolation in the first ring step of the indentation scene", "",
              f"Command: `{command}`.",
              f"Machine: {os.cpu_count()} cores, {platform.machine()}, Python {platform.python_version()};"

@@ -2,8 +2,8 @@
 
 For each grid of m x m nodes and each case, a fresh subprocess (so that ``ru_maxrss`` is the
 peak of that case alone, C allocations included) builds the plate + Winkler test matrix of
-:func:`thinfilm.solvers.linear.plate_test_matrix` (nu = 0.3, winkler = 4e6 i.e. lam = 31.6,
-k_res = 1e-6) with the crack field of :func:`thinfilm.solvers.linear.crack_bands` (a through crack,
+:func:`tests.solvers.plate_system.plate_test_matrix` (nu = 0.3, winkler = 4e6 i.e. lam = 31.6,
+k_res = 1e-6) with the crack field of :func:`tests.solvers.plate_system.crack_bands` (a through crack,
 a T-junction, a ring and a partial crack, alpha = 1 across them), loads it by pure bending
 ``w = -x^2/2`` and measures
 
@@ -18,17 +18,18 @@ a T-junction, a ring and a partial crack, alpha = 1 across them), loads it by pu
 
 Cases: ``plain`` (``scipy.sparse.linalg.spsolve`` on the grown crack, the baseline every ratio
 refers to, measured in the same invocation), ``pardiso`` and ``superlu`` (``kind="direct"``
-backends), ``amg`` (``kind="amg"``). Cases whose estimated cost is past ~5 minutes or ~12 GB
-are skipped and listed as such.
+backends), ``amg`` (``kind="amg"``, told the plate's near-nullspace,
+:func:`thinfilm.plate.operators.near_nullspace`). Cases whose estimated cost is past ~5
+minutes or ~12 GB are skipped and listed as such.
 
-Usage::
+Usage (from the repository root)::
 
-    python benchmarks/bench_usolve.py                      # 250 500 1000 1500, ~25 min
-    python benchmarks/bench_usolve.py --sizes 250 500 1000 # one invocation per ~15 min
-    python benchmarks/bench_usolve.py --sizes 1500         # rows are merged into the CSV
+    python -m benchmarks.bench_usolve                      # 250 500 1000 1500, ~25 min
+    python -m benchmarks.bench_usolve --sizes 250 500 1000 # one invocation per ~15 min
+    python -m benchmarks.bench_usolve --sizes 1500         # rows are merged into the CSV
 
 Writes ``benchmarks/results/usolve.csv`` (rows merged by (m, case)), ``usolve.md`` and
-``usolve.png``.
+``usolve.png`` (``--out`` another folder).
 """
 
 from __future__ import annotations
@@ -43,8 +44,8 @@ import sys
 import time
 from pathlib import Path
 
+ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).resolve().parent / "results"
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout
 CASES = ("plain", "pardiso", "superlu", "amg")
 FIELDS = ["m", "unknowns", "nnz", "case", "status", "first_setup_s", "first_solve_s",
           "first_s", "first_iterations", "resolve_s", "resolve_s_max", "resolve_setup_s",
@@ -74,8 +75,9 @@ def worker(m, case):
     import numpy as np
     import scipy.sparse.linalg as spla
 
-    from thinfilm.solvers.linear import (crack_bands, grid_coords, make_solver, plate_test_matrix,
-                                   LinearSolverError)
+    from tests.solvers.plate_system import crack_bands, grid_coords, plate_test_matrix
+    from thinfilm.plate.operators import near_nullspace
+    from thinfilm.solvers.linear import LinearSolverError, make_solver
 
     winkler = 4e6
     t = time.perf_counter()
@@ -101,7 +103,7 @@ def worker(m, case):
             kind = "amg" if case == "amg" else "direct"
             opts = {} if kind == "amg" else {"backend": case}
             t = time.perf_counter()  # construction included: PARDISO analyses there
-            solver = make_solver(kind, K1, coords=coords, **opts)
+            solver = make_solver(kind, K1, near_nullspace=near_nullspace(coords), **opts)
             solver.update(K1)
             u1, i1 = solver.solve(f)
             first = time.perf_counter() - t
@@ -144,11 +146,11 @@ def run_case(m, case, timeout):
         if not pardiso_available():
             return dict(m=m, unknowns=m * m, case=case, status="skipped",
                         note="pypardiso not installed")
-    cmd = [sys.executable, __file__, "--worker", str(m), case]
+    cmd = [sys.executable, "-m", "benchmarks.bench_usolve", "--worker", str(m), case]
     env = dict(os.environ, PYTHONWARNINGS="ignore")
     t = time.perf_counter()
     try:
-        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env)
+        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=ROOT)
     except subprocess.TimeoutExpired:
         return dict(m=m, unknowns=m * m, case=case, status="timeout",
                     note=f"killed after {timeout:.0f} s")
@@ -177,10 +179,10 @@ def fmt(x, spec):
         return str(x)
 
 
-def write_outputs(rows, command):
-    RESULTS.mkdir(parents=True, exist_ok=True)
+def write_outputs(rows, command, out=RESULTS):
+    out.mkdir(parents=True, exist_ok=True)
     rows = sorted(rows, key=lambda r: (int(r["m"]), CASES.index(r["case"])))
-    with open(RESULTS / "usolve.csv", "w", newline="") as fh:
+    with open(out / "usolve.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=FIELDS, extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
@@ -226,11 +228,11 @@ def write_outputs(rows, command):
             f"{loose} | {fmt(r.get('peak_gb'), '.2f')} ({fmt(r.get('base_gb'), '.2f')}) | "
             f"{fmt(r.get('ratio_first'), '.2f')} | {fmt(r.get('ratio_resolve'), '.2f')} | "
             f"{r.get('note', '')} |")
-    (RESULTS / "usolve.md").write_text("\n".join(lines) + "\n")
-    plot(rows)
+    (out / "usolve.md").write_text("\n".join(lines) + "\n")
+    plot(rows, out)
 
 
-def plot(rows):
+def plot(rows, out=RESULTS):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -262,7 +264,7 @@ def plot(rows):
     ax2.legend(fontsize=7)
     ax2.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
-    fig.savefig(RESULTS / "usolve.png", dpi=120)
+    fig.savefig(out / "usolve.png", dpi=120)
 
 
 def main(argv=None):
@@ -271,13 +273,14 @@ def main(argv=None):
                     help="nodes per side of the square grids")
     ap.add_argument("--cases", nargs="+", default=list(CASES), choices=CASES)
     ap.add_argument("--timeout", type=float, default=600.0, help="seconds per case")
+    ap.add_argument("--out", type=Path, default=RESULTS, help="folder of the result files")
     ap.add_argument("--worker", nargs=2, metavar=("M", "CASE"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.worker:
         worker(int(args.worker[0]), args.worker[1])
         return
-    command = "python benchmarks/bench_usolve.py " + " ".join(sys.argv[1:])
-    old = {(int(r["m"]), r["case"]): r for r in load_rows(RESULTS / "usolve.csv")}
+    command = "python -m benchmarks.bench_usolve " + " ".join(sys.argv[1:])
+    old = {(int(r["m"]), r["case"]): r for r in load_rows(args.out / "usolve.csv")}
     for m in args.sizes:
         new = {}
         for case in args.cases:
@@ -289,8 +292,8 @@ def main(argv=None):
                 r["ratio_resolve"] = float(r["resolve_s"]) / float(base["resolve_s"])
             r["command"] = command
             old[(m, case)] = r
-        write_outputs(list(old.values()), command)  # after each size: partial results survive
-    print((RESULTS / "usolve.md").read_text())
+        write_outputs(list(old.values()), command, args.out)  # after each size: partial results survive
+    print((args.out / "usolve.md").read_text())
 
 
 if __name__ == "__main__":

@@ -148,7 +148,7 @@ def fragment_energy(length, lam, t):
     Returns
     -------
     ndarray
-        Energy per unit width (non-dimensional, as in MODEL.md).
+        Energy per unit width (non-dimensional, as in ``docs/model.md``).
     """
     return 0.5 * np.asarray(t, dtype=float) ** 2 * fragment_coefficient(length, lam)
 

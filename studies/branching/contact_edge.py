@@ -15,11 +15,16 @@ cells on (-0.12, 0.12)^2; the density of the intact film does not depend on ``et
 reach ``e_c`` for the dissertation's ``eta = 0.0033`` (the ``_fine`` case files) and for the
 coarse case files' ``eta = 0.005``, and both densities at the figure's load.
 
-Usage::
+The toughnesses and figure loads are those of ``cases/indentation_branching_G07.toml``,
+``_G15`` and ``_G20``. The intact film scanned to ``--t-end`` has no case file of its own: it is
+``indentation_branching_G20.toml`` with the grid, ``G/a = 1``, ``eta = 0.005`` and
+``t_max = --t-end`` set over it (G/a and eta do not enter the intact film's density).
 
-    python benchmarks/bench_contact_edge_limit.py          # under a minute
+Usage (from the repository root)::
 
-Writes ``benchmarks/results/contact_edge_limit.md`` and ``.csv``.
+    python -m studies.branching.contact_edge          # under a minute
+
+Writes ``studies/branching/results/contact_edge_limit.md`` and ``.csv``.
 """
 
 from __future__ import annotations
@@ -27,21 +32,17 @@ from __future__ import annotations
 import argparse
 import csv
 import platform
-import sys
 from pathlib import Path
 
 import numpy as np
 from scipy.signal import argrelextrema
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # run from a checkout
+from studies.branching.scenes import ETA, RESULTS, grid_overrides, load_case
+from thinfilm.plate.kind import build_grid, make_model
+from thinfilm.plate.loads import contact_radius
+from thinfilm.plate.operators import c_m
 
-from bench_branching_seeds import CASES, ETA, HALF_WIDTH, SCENE  # noqa: E402  (the same Fig. 2.14 scenes)
-from thinfilm.plate.loads import contact_radius  # noqa: E402
-from thinfilm.plate.operators import c_m  # noqa: E402
-from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
-from thinfilm.scene import parse_scene  # noqa: E402
-
+CASES = ("G07", "G15", "G20")  # the Fig. 2.14 cases, in the seeds study's order
 ETAS = (ETA, 0.005)  # the _fine case files' 0.0033, the coarse case files' 0.005
 T_STEP = 0.005
 
@@ -71,15 +72,21 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--cells", type=int, default=360, help="cells per side of (-0.12, 0.12)^2")
     parser.add_argument("--t-end", type=float, default=0.25, help="last load scanned")
-    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
 
+    # Each case's toughness G/a and figure's load t (its case file's t_max).
+    figures = {}
+    for name in CASES:
+        case = load_case(name)
+        figures[name] = (case.model.toughness, case.load.t_max)
     # The scan's loads, with the figures' loads among them so that none is solved twice.
-    t_figures = [t for _toughness, t, _arm_length in CASES.values()]
+    t_figures = [t for _toughness, t in figures.values()]
     t_values = np.unique(np.round(np.r_[np.arange(T_STEP, args.t_end + 1e-12, T_STEP), t_figures], 6))
     # The intact film does not depend on G/a or eta: one scan serves every case.
-    scene = parse_scene(SCENE.format(toughness=1.0, eta=ETAS[1], half=HALF_WIDTH, cells=args.cells, t=args.t_end,
-                                     max_iter=1), source="<intact film>")
+    scene = load_case("G20", {**grid_overrides(args.cells, eta=ETAS[1]), "model.toughness": 1.0,
+                              "load.t_max": args.t_end, "load.steps": 2, "solver.max_iter": 1,
+                              "output.snapshots": [args.t_end]})
     grid = build_grid(scene.domain)
     model = make_model(scene, grid)
     profile = np.array([radial_densities(model, grid, t) for t in t_values])
@@ -87,7 +94,7 @@ def main(argv=None):
                     for t, (c, e, r) in zip(t_values[::5], profile[::5])), flush=True)
     rows = []
     radius = scene.load.radius
-    for name, (toughness, t_figure, _arm_length) in CASES.items():
+    for name, (toughness, t_figure) in figures.items():
         at_figure = profile[np.searchsorted(t_values, round(t_figure, 6))]
         for eta in ETAS:
             limit = toughness / (4.0 * c_m(1) * eta)
@@ -105,7 +112,7 @@ def main(argv=None):
     lines = [
         "# The intact film's AT1 elastic limit under the small indenter",
         "",
-        f"`python benchmarks/bench_contact_edge_limit.py --cells {args.cells} --t-end {args.t_end}` "
+        f"`python -m studies.branching.contact_edge --cells {args.cells} --t-end {args.t_end}` "
         f"({platform.machine()}, Python {platform.python_version()}). winkler = 6.4e7, R = {radius}, "
         f"{args.cells}^2 cells on (-0.12, 0.12)^2, loads every {T_STEP}. e: the intact film's undamaged "
         "bending energy density along y = 0, at the centre and at its maximum near the contact edge; "

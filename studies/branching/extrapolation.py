@@ -1,8 +1,8 @@
 """Seeded crack patterns of Fig. 2.14 extrapolated to the continuum (h -> 0 at fixed eta).
 
-``bench_branching_seeds.py`` ranks crosses, stars and double branches by their energies at one
+:mod:`studies.branching.seeds` ranks crosses, stars and double branches by their energies at one
 load, on one grid. Those energies carry the grid's bias for the axes, an error of first order in
-``h / eta`` (``bench_crack_orientation.py``) that is as large as the differences between the
+``h / eta`` (:mod:`studies.branching.orientation`) that is as large as the differences between the
 patterns. This study takes the results of several grids for the same seeds and extrapolates the
 difference ``D(h) = E(seed) - E(cross 0)`` to ``h = 0``:
 
@@ -13,25 +13,26 @@ difference ``D(h) = E(seed) - E(cross 0)`` to ``h = 0``:
 - with two or more grids, it also gives the first-order estimate from the two finest,
   ``D0 = D(h2) - h2 (D(h1) - D(h2)) / (h1 - h2)``.
 
-It runs no solver: it reads the ``.csv`` files that ``bench_branching_seeds.py`` wrote (one per
+It runs no solver: it reads the ``.csv`` files that :mod:`studies.branching.seeds` wrote (one per
 grid, or several grids in one), keeps the seeds that settled (a seed still moving after its
 iteration limit has no energy) and that at least two grids have, and writes a table. It does not know
 whether a seed ended as the same pattern on every grid: check the seeds' ``.png`` figures.
 
-Usage::
+Usage (from the repository root)::
 
-    python benchmarks/bench_branching_extrapolation.py \\
-        benchmarks/results/branching_seeds_240.csv \\
-        benchmarks/results/branching_seeds_double_y.csv \\
-        benchmarks/results/branching_seeds_480.csv \\
-        benchmarks/results/branching_seeds_480_double_y.csv \\
-        benchmarks/results/branching_seeds_G07_720.csv \\
-        benchmarks/results/branching_seeds_G15_720.csv \\
-        benchmarks/results/branching_seeds_G15_720_y15.csv \\
-        benchmarks/results/branching_seeds_G20_720.csv \\
-        benchmarks/results/branching_seeds_G20_720_y15.csv
+    python -m studies.branching.extrapolation \\
+        studies/branching/results/branching_seeds_240.csv \\
+        studies/branching/results/branching_seeds_double_y.csv \\
+        studies/branching/results/branching_seeds_480.csv \\
+        studies/branching/results/branching_seeds_480_double_y.csv \\
+        studies/branching/results/branching_seeds_G07_720.csv \\
+        studies/branching/results/branching_seeds_G15_720.csv \\
+        studies/branching/results/branching_seeds_G15_720_y15.csv \\
+        studies/branching/results/branching_seeds_G20_720.csv \\
+        studies/branching/results/branching_seeds_G20_720_y15.csv
 
-Writes ``benchmarks/results/branching_extrapolation.md`` and ``.csv`` (``--stem`` names them).
+Writes ``studies/branching/results/branching_extrapolation.md`` and ``.csv`` (``--stem`` names
+them).
 """
 
 from __future__ import annotations
@@ -39,16 +40,12 @@ from __future__ import annotations
 import argparse
 import csv
 import math
-import sys
 from collections import defaultdict
 from pathlib import Path
 
 from scipy.optimize import brentq
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))  # run from a checkout
-
-from bench_branching_seeds import ETA, HALF_WIDTH  # noqa: E402
+from studies.branching.scenes import ETA, HALF_WIDTH, RESULTS
 
 REFERENCE = "cross 0"
 # Seeds that end as the same pattern on every grid of the study (its figures): a double Y of
@@ -111,7 +108,7 @@ def extrapolate(h, d):
 
 
 def read_totals(paths):
-    """Total energies by ``(case, seed)`` and cells, from ``bench_branching_seeds`` result files;
+    """Total energies by ``(case, seed)`` and cells, from :mod:`studies.branching.seeds` result files;
     seeds that did not settle (NaN total) are left out.
 
     Two files may hold the same seed on the same grid (the cross is in every file); the runs are
@@ -136,11 +133,11 @@ def read_totals(paths):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("results", nargs="+", type=Path, help="bench_branching_seeds .csv files")
+    parser.add_argument("results", nargs="+", type=Path, help="studies.branching.seeds .csv files")
     parser.add_argument("--seeds", nargs="+", default=list(SAME_PATTERN),
                         help="seeds to extrapolate (check that each ends as one pattern on every grid)")
     parser.add_argument("--stem", default="branching_extrapolation", help="name of the result files")
-    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
 
     totals = read_totals(args.results)
@@ -173,7 +170,7 @@ def main(argv=None):
     lines = [
         "# Seeded Fig. 2.14 patterns: energy against the axis cross, extrapolated to h = 0",
         "",
-        f"`python benchmarks/bench_branching_extrapolation.py {inputs}`. eta = {ETA:.4g}; "
+        f"`python -m studies.branching.extrapolation {inputs}`. eta = {ETA:.4g}; "
         "`E - E(cross 0)` on each grid (coarse to fine); the order `p` and limit of "
         "`D0 + C h^p` through the three finest grids and, with four or more, through the "
         "three coarsest (blank: too few grids, or the changes are not monotone); the "

@@ -4,7 +4,7 @@ random toughness field, against the perfect film.
 The perfect film's evolutions of ``cases/indentation_branching_*.toml`` pass through a
 D4-symmetric disk of damage and stay symmetric to round-off, ending as crosses along the
 grid axes, although at G/a = 1.5 a three-armed star is the lower state
-(``bench_branching_seeds.py``). A film whose toughness varies a little from place to place
+(:mod:`studies.branching.seeds`). A film whose toughness varies a little from place to place
 (``[model] toughness_noise``, :mod:`thinfilm.plate.imperfection`) has no symmetry to stay on. This
 study runs each case's whole evolution for the perfect film and for several seeds of an
 imperfect one (the perfect film restricted to D4-symmetric fields, which its
@@ -22,27 +22,32 @@ The gaps are the angles at which the arms leave the junction, read where the cra
 are a few eta wide and the junction a blob of damage, so they are good to 10-20 degrees:
 look at the figure too.
 
-Usage (defaults: the three cases as their files give them, eta = 2 dx on (-0.2, 0.2)^2,
-160^2 cells, toughness_noise = 0.05, correlation length eta, seeds 1 2 3; 11 minutes;
-with --fine and seeds 1 2, 50 minutes)::
+The scenes are the case files ``cases/indentation_branching_G20.toml``, ``_G15`` and
+``_G07`` with what the study changes set over them (:func:`scene`): the grid (``--fine``,
+``--finer``: :data:`studies.branching.scenes.FINE`, ``FINER``), the toughness noise and its
+seed, ``domain.symmetry = "d4"`` for the perfect film, or ``solver.stability = true``.
 
-    python benchmarks/bench_imperfect_branching.py
-    python benchmarks/bench_imperfect_branching.py --cases G15 --seeds 1 --fine   # eta = 5 dx, 360^2
-    python benchmarks/bench_imperfect_branching.py --cases G15 --seeds 1 --finer  # eta = 10 dx, 720^2
-    python benchmarks/bench_imperfect_branching.py --fine --stability  # the perfect film, checked
+Usage (from the repository root; defaults: the three cases as their files give them, eta =
+2 dx on (-0.2, 0.2)^2, 160^2 cells, toughness_noise = 0.05, correlation length eta, seeds 1
+2 3; 11 minutes; with --fine and seeds 1 2, 50 minutes)::
+
+    python -m studies.branching.imperfect
+    python -m studies.branching.imperfect --cases G15 --seeds 1 --fine   # eta = 5 dx, 360^2
+    python -m studies.branching.imperfect --cases G15 --seeds 1 --finer  # eta = 10 dx, 720^2
+    python -m studies.branching.imperfect --fine --stability  # the perfect film, checked
 
 The imperfect film of ``--finer`` with seed 1 is the scene of
 ``cases/indentation_branching_*_fine.toml`` (the same scene, built here from the coarse case
-file; 36-77 minutes per evolution).
+file, ``tests/core/test_case_files.py`` checks it; 36-77 minutes per evolution).
 
 With ``--stability`` the study runs, instead of imperfect films, the perfect film unrestricted
 with ``[solver] stability = true`` (:mod:`thinfilm.plate.stability`): its evolution leaves the
 symmetric states that are saddles along their most unstable mode.
 
-Writes ``benchmarks/results/imperfect_branching.md``, ``.csv``, ``.png`` and ``_alpha.npz``
-(the grid's ``x``, ``y`` and each run's last damage, shape ``(ny + 1, nx + 1)``, keyed
-``G15_perfect``, ``G15_seed2``, ...) after each run (a stopped study keeps the runs it
-finished); with
+Writes ``studies/branching/results/imperfect_branching.md``, ``.csv``, ``.png`` and
+``_alpha.npz`` (the grid's ``x``, ``y`` and each run's last damage, shape ``(ny + 1, nx + 1)``,
+keyed ``G15_perfect``, ``G15_seed2``, ...; not kept under version control) after each run
+(a stopped study keeps the runs it finished); with
 ``--fine`` or ``--finer``, ``imperfect_branching_fine.*`` or ``_finer.*``. A study of some of
 the cases adds their names and the seeds to the file name
 (``imperfect_branching_fine_G15_seeds1.*``), a noise other than 0.05 adds it too
@@ -54,52 +59,40 @@ from __future__ import annotations
 import argparse
 import csv
 import platform
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # run from a checkout
+from studies.branching.scenes import FINE, FINER, RESULTS, load_case
+from thinfilm.engine import Engine
+from thinfilm.plate.cracks import CRACK_THRESHOLD, arms, branch_points, branch_spacing
+from thinfilm.plate.kind import build_grid, make_model
+from thinfilm.plate.loads import contact_radius
 
-from thinfilm.plate.cracks import CRACK_THRESHOLD, arms, branch_points, branch_spacing  # noqa: E402
-from thinfilm.plate.loads import contact_radius  # noqa: E402
-from thinfilm.engine import Engine  # noqa: E402
-from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
-from thinfilm.scene import parse_scene  # noqa: E402
-
-CASES = {"G20": "indentation_branching_G20.toml", "G15": "indentation_branching_G15.toml",
-         "G07": "indentation_branching_G07.toml"}
-# The dissertation's eta = 0.0033 = 5 dx (1500 nodes on (-0.5, 0.5)) on (-0.12, 0.12)^2.
-FINE = {"eta": "0.0033333333333333335", "x": "[-0.12, 0.12]", "y": "[-0.12, 0.12]", "cells": "[360, 360]"}
-# The same eta on a grid twice as fine, eta = 10 dx: half the grid's bias for the axes
-# (bench_crack_orientation.py).
-FINER = dict(FINE, cells="[720, 720]")
+CASES = ("G20", "G15", "G07")
 
 
-def scene_text(name, noise, seed, grid_lines, checked=False, restricted=True):
-    """The case file's text, its whole ``key = value`` lines replaced by ``grid_lines``
-    (a dict, empty for the case file's own grid) and the noise or symmetry keys added;
-    ``checked``: the perfect film, unrestricted, with the stability check; ``restricted =
-    False``: the perfect film unrestricted, without it."""
-    text = (ROOT / "cases" / CASES[name]).read_text()
-    for key, value in grid_lines.items():
-        old = [line for line in text.splitlines() if line.split("=")[0].strip() == key]
-        assert len(old) == 1, f"{name}: no single line for {key}"
-        text = text.replace(old[0], f"{key} = {value}")
+def scene_overrides(noise, seed, grid, checked=False, restricted=True):
+    """What the study sets over a case file: the ``grid`` overrides (a dict of dotted keys,
+    :data:`FINE` or :data:`FINER`, empty for the case file's own grid) and the noise or
+    symmetry keys; ``checked``: the perfect film, unrestricted, with the stability check;
+    ``restricted = False``: the perfect film unrestricted, without it."""
+    overrides = dict(grid)
     if checked:
-        anchor, added = "[solver]", "\nstability = true"
+        overrides["solver.stability"] = True
     elif noise > 0:
-        anchor, added = "k_res = 1e-6", f"\ntoughness_noise = {noise}\ntoughness_noise_seed = {seed}"
+        overrides.update({"model.toughness_noise": noise, "model.toughness_noise_seed": seed})
     elif restricted:
         # Left unrestricted, the perfect film's evolution stays D4-symmetric to round-off
-        # (README, small indenter): the restricted run is the same evolution, 5-10x faster.
-        anchor, added = "[domain]", '\nsymmetry = "d4"'
-    else:
-        return text
-    assert text.count(anchor) == 1, f"{name}: no single line {anchor!r} to add {added.strip()!r} after"
-    return text.replace(anchor, anchor + added)
+        # (studies/branching/README.md): the restricted run is the same evolution, 5-10x faster.
+        overrides["domain.symmetry"] = "d4"
+    return overrides
+
+
+def scene(name, noise, seed, grid, checked=False, restricted=True):
+    """The validated scene of case ``name`` with :func:`scene_overrides` set over its file."""
+    return load_case(name, scene_overrides(noise, seed, grid, checked, restricted))
 
 
 def _mismatch(a, b):
@@ -142,28 +135,28 @@ def pattern(alpha, x, y, inner_radius, eta):
     return len(directions), sorted(np.round(gaps).astype(int).tolist())
 
 
-def run(name, noise, seed, grid_lines, checked=False):
-    scene = parse_scene(scene_text(name, noise, seed, grid_lines, checked), source=f"<{name}>")
-    grid = build_grid(scene.domain)
-    model = make_model(scene, grid)
-    engine = Engine.from_options(model, scene.solver)
-    t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
+def run(name, noise, seed, grid_overrides, checked=False):
+    case = scene(name, noise, seed, grid_overrides, checked)
+    grid = build_grid(case.domain)
+    model = make_model(case, grid)
+    engine = Engine.from_options(model, case.solver)
+    t_values = np.linspace(0.0, case.load.t_max, case.load.steps + 1)
     start = time.perf_counter()
     records, states = engine.run(t_values)
     seconds = time.perf_counter() - start
     x, y = np.asarray(grid.x), np.asarray(grid.y)
     X, Y = np.meshgrid(x, y)
     out = []
-    for t_snap in scene.snapshots:
+    for t_snap in case.snapshots:
         k = int(np.argmin(np.abs(t_values - t_snap)))
         alpha = states[k].alpha.reshape(grid.ny + 1, grid.nx + 1)
-        inner_radius = 0.8 * contact_radius(scene.load.radius, t_values[k])
-        n_arms, gaps = pattern(alpha, x, y, inner_radius, scene.model.eta)
-        junctions = branch_points(alpha, x, y, 1.5 * scene.model.eta, within=np.hypot(X, Y) < inner_radius)
-        out.append({"case": name, "toughness": scene.model.toughness, "noise": noise,
+        inner_radius = 0.8 * contact_radius(case.load.radius, t_values[k])
+        n_arms, gaps = pattern(alpha, x, y, inner_radius, case.model.eta)
+        junctions = branch_points(alpha, x, y, 1.5 * case.model.eta, within=np.hypot(X, Y) < inner_radius)
+        out.append({"case": name, "toughness": case.model.toughness, "noise": noise,
                     "seed": seed if noise else ("stability" if checked else "-"),
                     "t": round(float(t_values[k]), 6), "arms": n_arms, "gaps": " ".join(map(str, gaps)),
-                    "branch_points": len(junctions), "spacing": branch_spacing(junctions) / scene.model.eta,
+                    "branch_points": len(junctions), "spacing": branch_spacing(junctions) / case.model.eta,
                     "total": states[k].total, "iterations": sum(r.iterations for r in records),
                     "seconds": seconds})
     final = states[-1].alpha.reshape(grid.ny + 1, grid.nx + 1)
@@ -218,7 +211,7 @@ def main(argv=None):
     resolution.add_argument("--finer", action="store_true", help="eta = 10 dx: 720^2 cells on (-0.12, 0.12)^2")
     parser.add_argument("--stability", action="store_true",
                         help="instead of imperfect films, the perfect film unrestricted with [solver] stability = true")
-    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
 
     import matplotlib
@@ -226,7 +219,7 @@ def main(argv=None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    grid_lines, suffix = (FINER, "_finer") if args.finer else (FINE, "_fine") if args.fine else ({}, "")
+    grid_overrides, suffix = (FINER, "_finer") if args.finer else (FINE, "_fine") if args.fine else ({}, "")
     if args.cases != list(CASES):   # a partial study does not overwrite the whole one
         suffix += "_" + "_".join(args.cases)
     if args.stability:
@@ -239,7 +232,7 @@ def main(argv=None):
             suffix += f"_s{args.noise:g}"
         runs = [(0.0, 0, False)] + [(args.noise, s, False) for s in args.seeds]
     resolution_flag = " --fine" if args.fine else " --finer" if args.finer else ""
-    command = (f"python benchmarks/bench_imperfect_branching.py --cases {' '.join(args.cases)}"
+    command = (f"python -m studies.branching.imperfect --cases {' '.join(args.cases)}"
                + (" --stability" if args.stability else
                   f" --seeds {' '.join(map(str, args.seeds))} --noise {args.noise:g}") + resolution_flag)
     stem = args.out / f"imperfect_branching{suffix}"
@@ -248,7 +241,7 @@ def main(argv=None):
                              squeeze=False)
     for axes_row, name in zip(axes, args.cases):
         for ax, (noise, seed, checked) in zip(axes_row, runs):
-            case_rows, final, (x, y) = run(name, noise, seed, grid_lines, checked)
+            case_rows, final, (x, y) = run(name, noise, seed, grid_overrides, checked)
             rows += case_rows
             last = case_rows[-1]
             print(f"{name} noise {noise} seed {seed}{' stability' if checked else ''}: " + "; ".join(

@@ -27,12 +27,15 @@ the twist at the cell centres (each node taking ``g_n`` times a quarter of its f
 :func:`thinfilm.plate.energy.nodal_energy` shares it), the foundation and the surface energy, to show
 which term of the discrete energy the bias comes from.
 
-Usage::
+The set-up is built from the operators directly (no scene file: no case of ``cases/`` has
+this load or damage).
 
-    python benchmarks/bench_crack_orientation.py              # eta/h = 5 10 20, about 3 minutes
-    python benchmarks/bench_crack_orientation.py --ratios 5 10
+Usage (from the repository root)::
 
-Writes ``benchmarks/results/crack_orientation.md`` and ``.csv``.
+    python -m studies.branching.orientation              # eta/h = 5 10 20, about 3 minutes
+    python -m studies.branching.orientation --ratios 5 10
+
+Writes ``studies/branching/results/crack_orientation.md`` and ``.csv``.
 """
 
 from __future__ import annotations
@@ -40,20 +43,18 @@ from __future__ import annotations
 import argparse
 import csv
 import platform
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # run from a checkout
+from thinfilm.plate.energy import bending_density, nodal_energy
+from thinfilm.plate.grid import Grid
+from thinfilm.plate.model import crack_profile
+from thinfilm.plate.operators import DamageOperator, PlateOperator
+from thinfilm.solvers.linear import make_solver
 
-from thinfilm.plate.energy import bending_density, nodal_energy  # noqa: E402
-from thinfilm.plate.grid import Grid  # noqa: E402
-from thinfilm.solvers.linear import make_solver  # noqa: E402
-from thinfilm.plate.model import crack_profile  # noqa: E402
-from thinfilm.plate.operators import DamageOperator, PlateOperator  # noqa: E402
+RESULTS = Path(__file__).resolve().parent / "results"
 
 HALF_WIDTH = 0.12
 WINKLER, NU, TOUGHNESS, K_RES = 6.4e7, 0.3, 1.0, 1e-6
@@ -125,7 +126,7 @@ def release_per_length(ratio):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--ratios", type=int, nargs="+", default=[5, 10, 20], help="eta / h")
-    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     rows, spreads = [], []
     for ratio in args.ratios:
@@ -146,7 +147,7 @@ def main(argv=None):
     lines = [
         "# Energy change per unit length of a straight crack band against its direction",
         "",
-        f"`python benchmarks/bench_crack_orientation.py --ratios {' '.join(map(str, args.ratios))}` "
+        f"`python -m studies.branching.orientation --ratios {' '.join(map(str, args.ratios))}` "
         f"({platform.machine()}, Python {platform.python_version()}). Square (-0.12, 0.12)^2, "
         f"winkler = {WINKLER:g}, eta = {ETA} (eta lam = {ETA * (WINKLER / 4) ** 0.25:.2f}), G/a = {TOUGHNESS:g}, "
         f"uniaxial bending t = {LOAD_T:g} across the band; energy change (elastic + surface) inside "

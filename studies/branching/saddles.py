@@ -12,12 +12,16 @@ about the centre: the ``m`` of the largest ``|sum_n v_n e^{i m theta_n}| / sum_n
 ``m = 3`` one that grows it three ways (a three-armed star), ``m = 4`` a cross.
 Curvatures are in units of ``G/(a eta)``; negative ones make the state a saddle.
 
-Usage::
+The scenes are the case files ``cases/indentation_branching_G20.toml``, ``_G15`` and
+``_G07`` on the grid :data:`studies.branching.scenes.FINE`, as
+:func:`studies.branching.imperfect.scene` builds them for the perfect film.
 
-    python benchmarks/bench_symmetric_saddles.py              # G20 G15 G07, 3 steps each
-    python benchmarks/bench_symmetric_saddles.py --cases G15 --steps 2
+Usage (from the repository root)::
 
-Writes ``benchmarks/results/symmetric_saddles.md`` and ``.csv``.
+    python -m studies.branching.saddles              # G20 G15 G07, 3 steps each
+    python -m studies.branching.saddles --cases G15 --steps 2
+
+Writes ``studies/branching/results/symmetric_saddles.md`` and ``.csv``.
 """
 
 from __future__ import annotations
@@ -25,21 +29,16 @@ from __future__ import annotations
 import argparse
 import csv
 import platform
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # run from a checkout
-sys.path.insert(0, str(ROOT / "benchmarks"))
-
-from bench_imperfect_branching import CASES, FINE, scene_text  # noqa: E402
-from thinfilm.engine import Engine  # noqa: E402
-from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
-from thinfilm.scene import parse_scene  # noqa: E402
-from thinfilm.plate.stability import lowest_modes  # noqa: E402
+from studies.branching.imperfect import CASES, scene
+from studies.branching.scenes import FINE, RESULTS
+from thinfilm.engine import Engine
+from thinfilm.plate.kind import build_grid, make_model
+from thinfilm.plate.stability import lowest_modes
 
 HARMONICS = 7
 
@@ -53,13 +52,13 @@ def harmonic(mode, theta):
 
 
 def study(name, n_steps, n_modes):
-    symmetric = parse_scene(scene_text(name, 0.0, 0, FINE), source=f"<{name}>")
+    symmetric = scene(name, 0.0, 0, FINE)
     grid = build_grid(symmetric.domain)
     engine = Engine.from_options(make_model(symmetric, grid), symmetric.solver)
     t_values = np.linspace(0.0, symmetric.load.t_max, symmetric.load.steps + 1)
     _, states = engine.run(t_values)
     # The unrestricted operators of the same film, for the curvatures.
-    free = parse_scene(scene_text(name, 0.0, 0, FINE, restricted=False), source=f"<{name}>")
+    free = scene(name, 0.0, 0, FINE, restricted=False)
     model = make_model(free, grid)
     x, y = grid.coordinates
     theta = np.arctan2(y, x)
@@ -92,7 +91,7 @@ def main(argv=None):
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     parser.add_argument("--steps", type=int, default=3, help="load steps with moving damage to check per case")
     parser.add_argument("--modes", type=int, default=6)
-    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     rows = []
     for name in args.cases:
@@ -105,7 +104,7 @@ def main(argv=None):
     lines = [
         "# Curvatures of the reduced energy at the small indenter's symmetric states",
         "",
-        f"`python benchmarks/bench_symmetric_saddles.py --cases {' '.join(args.cases)} --steps {args.steps} "
+        f"`python -m studies.branching.saddles --cases {' '.join(args.cases)} --steps {args.steps} "
         f"--modes {args.modes}` ({platform.machine()}, Python {platform.python_version()}). Perfect film, eta = 5 dx, "
         "360^2 cells; states of the D4-restricted evolution, curvatures on the unrestricted grid in units of "
         "G/(a eta), ascending; (m) the mode's angular harmonic about the centre (2: one straight crack, "

@@ -3,7 +3,7 @@ energy of each pattern at one load, from seeded damage, on the dissertation's Fi
 
 The evolutions of ``cases/indentation_branching_*.toml`` end as crosses along the grid axes
 where the dissertation shows cracks meeting at 120 degrees. Two causes are possible: the
-grid (which favours axis-aligned cracks, ``bench_crack_orientation.py``) or the model
+grid (which favours axis-aligned cracks, :mod:`studies.branching.orientation`) or the model
 (the cross is the lower state). This study separates them. For each scene it seeds four
 patterns of straight arms of one length from the centre, each arm the optimal AT1 profile of
 the distance to a segment:
@@ -29,20 +29,25 @@ options), so that arms may grow, shrink or turn. It reports each final state's e
 branch points (number and spacing), iterations and time, and the final damage fields in a
 figure.
 
-Usage (the defaults are the three Fig. 2.14 cases at the dissertation's eta = 0.0033 = 5 dx,
-360 x 360 cells on (-0.12, 0.12)^2, unrestricted, at their last loads; about 18 minutes, most of it in the G/a = 2.0 stars)::
+The scenes are the case files ``cases/indentation_branching_G07.toml``, ``_G15`` and ``_G20``
+(toughness, indenter, load ``t`` = their ``t_max``, solver) with the grid of
+:func:`studies.branching.scenes.grid_overrides` and ``max_iter`` set over them.
 
-    python benchmarks/bench_branching_seeds.py
-    python benchmarks/bench_branching_seeds.py --cells 720 --cases G07     # eta = 10 dx
-    python benchmarks/bench_branching_seeds.py --seeds 'star 0' 'double Y 1.5' 'double Y 3' \
+Usage (from the repository root; the defaults are the three Fig. 2.14 cases at the
+dissertation's eta = 0.0033 = 5 dx, 360 x 360 cells on (-0.12, 0.12)^2, unrestricted, at their
+last loads; about 18 minutes, most of it in the G/a = 2.0 stars)::
+
+    python -m studies.branching.seeds
+    python -m studies.branching.seeds --cells 720 --cases G07     # eta = 10 dx
+    python -m studies.branching.seeds --seeds 'star 0' 'double Y 1.5' 'double Y 3' \
         'double Y 6' --stem branching_seeds_double_y                  # 35 minutes
-    python benchmarks/bench_branching_seeds.py --cases G07 --seeds ring 'cross 0 + ring' \
+    python -m studies.branching.seeds --cases G07 --seeds ring 'cross 0 + ring' \
         'star 0 + ring' --stem branching_seeds_ring_G07              # 5 minutes
 
-Writes ``benchmarks/results/branching_seeds.md``, ``.csv`` and ``.png`` (``--stem`` names them),
-and with ``--save-alpha`` the final damage fields in ``_alpha.npz``.
-``bench_branching_extrapolation.py`` takes the ``.csv`` files of several grids (``--cells``) and
-extrapolates each seed's energy against the cross to ``h = 0``.
+Writes ``studies/branching/results/branching_seeds.md``, ``.csv`` and ``.png`` (``--stem``
+names them), and with ``--save-alpha`` the final damage fields in ``_alpha.npz`` (not kept
+under version control). :mod:`studies.branching.extrapolation` takes the ``.csv`` files of
+several grids (``--cells``) and extrapolates each seed's energy against the cross to ``h = 0``.
 """
 
 from __future__ import annotations
@@ -50,27 +55,21 @@ from __future__ import annotations
 import argparse
 import csv
 import platform
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # run from a checkout
+from studies.branching.scenes import ETA, HALF_WIDTH, RESULTS, grid_overrides, load_case
+from thinfilm.engine import Engine, EvolutionError
+from thinfilm.plate.cracks import branch_points, branch_spacing
+from thinfilm.plate.kind import build_grid, make_model
+from thinfilm.plate.loads import contact_radius
+from thinfilm.plate.model import crack_profile
 
-from thinfilm.plate.cracks import branch_points, branch_spacing  # noqa: E402
-from thinfilm.engine import EvolutionError  # noqa: E402
-from thinfilm.plate.loads import contact_radius  # noqa: E402
-from thinfilm.plate.model import crack_profile  # noqa: E402
-from thinfilm.engine import Engine  # noqa: E402
-from thinfilm.plate.kind import build_grid, make_model  # noqa: E402
-from thinfilm.scene import parse_scene  # noqa: E402
-
-ETA = 0.0033333333333333335  # the dissertation's eta = 5 dx at 1500 nodes on (-0.5, 0.5)
-HALF_WIDTH = 0.12
-# case: toughness G/a, load t (the figure's), arm length (alpha > 0.5 of the D4 evolutions)
-CASES = {"G07": (0.7, 0.075, 0.027), "G15": (1.5, 0.1, 0.025), "G20": (2.0, 0.17, 0.036)}
+# case: arm length of the seeds (alpha > 0.5 of the D4 evolutions); the toughness G/a and the
+# load t (the figure's) are the case file's toughness and t_max
+CASES = {"G07": 0.027, "G15": 0.025, "G20": 0.036}
 # Seeds made of arms from the centre: the arms' directions in degrees.
 SEEDS = {"cross 0": (0, 90, 180, 270), "cross 45": (45, 135, 225, 315),
          "star 0": (0, 120, 240), "star 15": (15, 135, 255)}
@@ -80,31 +79,13 @@ DOUBLE_Y = {"double Y 1.5": 1.5, "double Y 3": 3.0, "double Y 6": 6.0}
 # Seeds with a ring crack of 0.9 times the contact radius at the load: the pattern inside it.
 RINGED = {"ring": (), "cross 0 + ring": SEEDS["cross 0"], "star 0 + ring": SEEDS["star 0"]}
 
-SCENE = """
-[model]
-kind = "plate"
-at = 1
-nu = 0.3
-winkler = 6.4e7
-toughness = {toughness}
-eta = {eta}
-k_res = 1e-6
 
-[domain]
-x = [-{half}, {half}]
-y = [-{half}, {half}]
-cells = [{cells}, {cells}]
 
-[load]
-kind = "indenter"
-radius = 0.1
-t_max = {t}
-steps = 2  # only t_max is computed here
-
-[solver]
-acceleration = "overrelax"
-max_iter = {max_iter}
-"""
+def case_scene(name, cells, max_iter):
+    """The scene of case ``name`` (its case file) on ``cells`` x ``cells`` cells of
+    (-0.12, 0.12)^2 at eta = 0.0033, allowing ``max_iter`` iterations; only its ``t_max`` is
+    computed here."""
+    return load_case(name, {**grid_overrides(cells), "load.steps": 2, "solver.max_iter": max_iter})
 
 
 def segments(seed_name, eta, length):
@@ -144,16 +125,15 @@ def seed_damage(grid, eta, pieces, ring_radius=None):
 
 def junctions(alpha, grid):
     """Branch points of a final damage field (:func:`thinfilm.plate.cracks.branch_points`, circles of
-    1.5 eta, as ``bench_imperfect_branching`` reads them): their number and largest distance
+    1.5 eta, as :mod:`studies.branching.imperfect` reads them): their number and largest distance
     apart in units of eta (0 for fewer than two)."""
     points = branch_points(alpha, grid.x, grid.y, 1.5 * ETA)
     return len(points), branch_spacing(points) / ETA
 
 
 def run_case(name, cells, max_iter, seed_names):
-    toughness, t, length = CASES[name]
-    scene = parse_scene(SCENE.format(toughness=toughness, eta=ETA, half=HALF_WIDTH, cells=cells, t=t,
-                                     max_iter=max_iter), source=f"<{name}>")
+    scene = case_scene(name, cells, max_iter)
+    toughness, t, length = scene.model.toughness, scene.load.t_max, CASES[name]
     grid = build_grid(scene.domain)
     model = make_model(scene, grid)  # one model (and solver analysis) for every seed
     rows, fields = [], {}
@@ -193,7 +173,7 @@ def main(argv=None):
     parser.add_argument("--seeds", nargs="+", default=list(SEEDS), choices=list(SEEDS) + list(DOUBLE_Y) + list(RINGED),
                         help="patterns to seed (cross 0, the reference, is always run first)")
     parser.add_argument("--stem", default="branching_seeds", help="name of the result files")
-    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--save-alpha", action="store_true",
                         help="also write every final damage field to <stem>_alpha.npz (key 'CASE SEED')")
     args = parser.parse_args(argv)
@@ -242,7 +222,7 @@ def main(argv=None):
     lines = [
         "# Seeded crack patterns under the small indenter (one load, no irreversibility)",
         "",
-        f"`python benchmarks/bench_branching_seeds.py --cells {args.cells} --cases {' '.join(args.cases)}"
+        f"`python -m studies.branching.seeds --cells {args.cells} --cases {' '.join(args.cases)}"
         f"{options}` "
         f"({platform.machine()}, Python {platform.python_version()}). eta = {ETA:.4g} = "
         f"{ETA / (2 * HALF_WIDTH / args.cells):.3g} dx, winkler = 6.4e7, R = 0.1, unrestricted. "

@@ -262,7 +262,7 @@ def test_naive_free_edge_closure_is_first_order():
 def band_energy_change(eta_over_h, angles_deg):
     """Energy change per unit length (elastic + surface, inside a disk) that a straight AT1
     crack band through the centre at each angle brings to a plate under uniaxial bending
-    across it (the set-up of ``benchmarks/bench_crack_orientation.py``, halved in size:
+    across it (the set-up of ``studies/branching/orientation.py``, halved in size:
     1/lam = 0.008, eta lam = 0.47, the free edges 3.8 decay lengths beyond the disk).
     Returns one value per angle."""
     half, winkler, eta, t, radius = 0.06, 1e9, 0.00375, 10.0, 0.03
@@ -294,7 +294,7 @@ def test_crack_band_energy_converges_to_a_direction_free_limit():
     # The continuum energy is isotropic; on the grid a band along an axis (on a node row)
     # costs less than a diagonal one. The gap is a discretization error: it must vanish as
     # h -> 0 at fixed eta, at least at first order (measured: order 0.93 over eta/h = 5-20
-    # in benchmarks/results/crack_orientation.md), while each value converges.
+    # in studies/branching/results/crack_orientation.md), while each value converges.
     ratios = np.array([5.0, 10.0])
     axis, diagonal = np.array([band_energy_change(r, (0.0, 45.0)) for r in ratios]).T
     gap = diagonal - axis

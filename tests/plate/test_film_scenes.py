@@ -1,6 +1,6 @@
 """The thin-film scenes of dissertation section 2.5 on coarse grids: the coated cantilever and
 the spherical indenter. Each test checks one number that the full-resolution case also shows
-(README, "Thin-film scenes")."""
+(docs/cases.md)."""
 
 
 import numpy as np

@@ -15,7 +15,6 @@ import scipy.sparse.linalg as spla
 
 from thinfilm.plate import energy
 from thinfilm.plate.grid import Grid
-from thinfilm.plate.kernels import stencil as kernels
 from thinfilm.plate.kernels import reference
 from thinfilm.plate.operators import DamageOperator, PlateOperator
 

@@ -11,7 +11,7 @@ The start is only a first iterate: irreversibility is still against the fine run
 previous step (``alpha_start = max(alpha_{i-1}, coarse)``), every iteration still lowers the
 energy, and the step ends at a stationary point of the fine problem. It may be another
 local minimizer than the one reached from ``alpha_{i-1}`` alone (as any change of the path
-may, see the README on over-relaxation); ``tests/test_sequencing.py`` compares both.
+may, see ``docs/speed.md#acceleration``); ``tests/plate/test_sequencing.py`` compares both.
 """
 
 from __future__ import annotations
