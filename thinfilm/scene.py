@@ -199,9 +199,8 @@ def solver_keys():
     for group, cls, prefix, head in SCENE_GROUPS:
         for key, f in scene_keys(cls, prefix, head).items():
             out[key] = (group, f)
-    for key, f in scene_keys(SolverSettings).items():
-        if key not in ("altmin", "backtrack", "search", "stability"):
-            out[key] = (None, f)
+    for key, f in scene_keys(SolverSettings).items():  # its own: the groups are not options
+        out[key] = (None, f)
     return out
 
 
@@ -400,6 +399,5 @@ def solver_reference():
     rows = ["| key | default | allowed | units | meaning |", "|---|---|---|---|---|"]
     for group, cls, prefix, head in SCENE_GROUPS:
         rows += [f"| `{k}` | {d} | {a} | {u} | {m} |" for k, d, a, u, m in reference_rows(cls, prefix, head)]
-    rows += [f"| `{k}` | {d} | {a} | {u} | {m} |" for k, d, a, u, m in reference_rows(SolverSettings)
-             if k not in ("altmin", "backtrack", "search", "stability")]
+    rows += [f"| `{k}` | {d} | {a} | {u} | {m} |" for k, d, a, u, m in reference_rows(SolverSettings)]
     return "\n".join(rows)
