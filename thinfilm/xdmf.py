@@ -26,7 +26,7 @@ used as stored.
 
 Open ``results.xdmf`` in ParaView with the **"XDMF Reader"** (VTK's ``vtkXdmfReader``); the
 time slider then steps through the load. With VTK 9.7's reader, every step's ``alpha`` and
-``u``, its load and the node coordinates come back exactly (``tests/test_inspect.py``, when
+``u``, its load and the node coordinates come back exactly (``tests/core/test_inspect.py``, when
 the ``vtk`` package is installed). ParaView's "Xdmf3 Reader S/T" are not recommended for this
 file: ``vtkXdmf3DataSet::XdmfToVTKAttributes`` sizes an attribute's array from its dimensions
 *before* reading it, and a HyperSlab item has none until it is read, so those readers are
