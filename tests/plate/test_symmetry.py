@@ -234,9 +234,11 @@ def test_symmetry_the_load_or_clamp_does_not_have_is_refused():
         make_model_of(scene)
     assert err.value.key == "domain.symmetry" and "clamped edges (x0)" in str(err.value)
     # Mirroring y is a symmetry of the cantilever's grid, clamp and load.
-    assert make_model_of(with_symmetry("cantilever_6e6", "mirror_y", {"domain.cells": [40, 4]})).symmetry.n_orbits == 41 * 3
+    mirrored = make_model_of(with_symmetry("cantilever_6e6", "mirror_y", {"domain.cells": [40, 4]}))
+    assert mirrored.symmetry.n_orbits == 41 * 3
     # An indenter off the centre of the domain is not invariant under its mirrors.
-    scene = with_symmetry("indentation", "d2", {"domain.cells": [40, 40], "domain.x": [-0.4, 0.5], "domain.y": [-0.4, 0.5]})
+    scene = with_symmetry("indentation", "d2", {"domain.cells": [40, 40], "domain.x": [-0.4, 0.5],
+                                                "domain.y": [-0.4, 0.5]})
     with pytest.raises(SceneError) as err:
         make_model_of(scene)
     assert err.value.key == "domain.symmetry" and "not invariant" in str(err.value)

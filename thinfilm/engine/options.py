@@ -121,7 +121,8 @@ class BacktrackOptions:
     interval: int = option(10, "deep: test every this many alternate-minimization iterations",
                            rule=Rule("integer", minimum=1))
     direction: int = option(1, "deep: scan earlier steps oldest first (1) or newest first (-1)",
-                            rule=Rule("choice", choices=(1, -1), phrase="must be 1 (oldest first) or -1 (newest first)"))
+                            rule=Rule("choice", choices=(1, -1),
+                                      phrase="must be 1 (oldest first) or -1 (newest first)"))
     scope: int = option(0, "deep: how many earlier steps are scanned (0: all)", rule=Rule("integer", minimum=0))
     limit: int = option(200, "backtracks allowed in one evolution", rule=Rule("integer", minimum=0))
 

@@ -54,8 +54,8 @@ def toughness_figure(res, outdir):
         aspect = (res.y[-1] - res.y[0]) / (res.x[-1] - res.x[0])
         width = min(6.0, 4.5 / aspect)
         fig, ax = line_figure(width + 1.6, width * aspect + 1.2)
-        image = ax.imshow(values.reshape(len(res.y), len(res.x)), origin="lower", extent=image_extent(res.discretization),
-                          cmap="cividis", interpolation="auto")
+        image = ax.imshow(values.reshape(len(res.y), len(res.x)), origin="lower",
+                          extent=image_extent(res.discretization), cmap="cividis", interpolation="auto")
         ax.set_xlabel("x (L)")
         ax.set_ylabel("y (L)")
         fig.colorbar(image, ax=ax, label="G/a", shrink=0.9)
