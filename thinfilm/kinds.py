@@ -60,6 +60,7 @@ class ModelKind(Protocol):
 BUILTIN = {
     "exact1d": "thinfilm.exact1d.kind",
     "plate": "thinfilm.plate.kind",
+    "fem": "fem3d.kind",
 }
 
 _registered: dict[str, ModelKind] = {}

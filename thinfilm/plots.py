@@ -89,8 +89,10 @@ def _label(res, field):
 
 
 def _axis(res, name):
-    """``"x (L)"``: a coordinate axis in the kind's length unit."""
-    return f"{name} ({kinds.get(res.kind).length_unit})"
+    """``"x (L)"``: a coordinate axis in the kind's length unit (``"x"`` if it has none: the
+    scene's own units)."""
+    unit = kinds.get(res.kind).length_unit
+    return f"{name} ({unit})" if unit else name
 
 
 def image_extent(grid):

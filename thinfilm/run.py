@@ -57,7 +57,11 @@ def run(scene, outdir, progress=lambda n: None, resume=False):
 
 
 def load_steps(load):
-    """The loads of a scene's steps, ``t_0 = 0, ..., t_max`` in ``steps`` equal steps."""
+    """The loads of a scene's steps: its explicit list ``load.values`` if it has one, else
+    ``t_0 = 0, ..., t_max`` in ``steps`` equal steps."""
+    values = getattr(load, "values", None)
+    if values is not None:
+        return np.asarray(values, dtype=float)
     return np.linspace(0.0, load.t_max, load.steps + 1)
 
 

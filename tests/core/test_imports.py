@@ -20,8 +20,8 @@ import pytest
 
 from tests.helpers import ROOT
 
-PACKAGES = ("onedim", "thinfilm")
-KINDS = ("thinfilm.plate", "thinfilm.exact1d")
+PACKAGES = ("onedim", "thinfilm", "fem3d")
+KINDS = ("thinfilm.plate", "thinfilm.exact1d", "fem3d")
 
 
 def module_name(path):

@@ -53,7 +53,7 @@ def bar_run(bar_kind, tmp_path):
 
 
 def test_unknown_kinds_are_refused_naming_the_known_ones():
-    with pytest.raises(SceneError, match='model.kind = "bar": must be one of "exact1d", "plate"'):
+    with pytest.raises(SceneError, match='model.kind = "bar": must be one of "exact1d", "plate", "fem"'):
         parse_scene(SCENE)
 
 

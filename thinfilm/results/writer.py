@@ -251,9 +251,11 @@ def write_summary(path, scene, results, extra=None):
     results : thinfilm.results.reader.Results
         The run's open results (finished steps).
     extra : dict, optional
-        The kind's own entries (the film's crack events, for example).
+        The kind's own entries (the film's crack events, for example); its ``"steps"`` entry,
+        if any, adds per-step lists to ``"steps"`` (a solid's force and crack length).
     """
-    content = {"kind": scene.kind, "scene": scene.source, "parameters": results.parameters, **(extra or {}),
-               "steps": {name: results.steps[name].tolist()
-                         for name in ("t", "elastic", "surface", "total", "iterations")}}
+    extra = dict(extra or {})
+    steps = {name: results.steps[name].tolist() for name in ("t", "elastic", "surface", "total", "iterations")}
+    steps.update(extra.pop("steps", {}))
+    content = {"kind": scene.kind, "scene": scene.source, "parameters": results.parameters, **extra, "steps": steps}
     return write_json(path, content)

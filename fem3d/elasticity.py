@@ -1,0 +1,424 @@
+r"""P1 linear elasticity with a degraded stiffness: the u-problem of the bulk solid.
+
+Discrete energy (``docs/model.md#bulk-solids-finite-elements``)
+===============================================================
+Displacement ``u``: P1, ``d`` components per node (``d`` = 2 triangles, 3 tetrahedra), dof
+``node * d + component``. Damage ``alpha``: P1 scalar per node, 0 sound, 1 broken. The strain
+``e(u)`` is constant on each cell ``e``; ``psi_e = 1/2 e:C:e = lam/2 tr(e)^2 + mu e:e`` is the
+cell's undamaged strain-energy density, with ``mu = E / (2 (1 + nu))`` and
+
+- 3D and 2D plane strain: ``lam = E nu / ((1 + nu)(1 - 2 nu))`` (plane strain: ``e_zz = 0``);
+- 2D plane stress: ``lam* = 2 lam mu / (lam + 2 mu)`` (``sigma_zz = 0``, ``e_zz`` eliminated),
+
+and ``tr``, ``e:e`` taken over the in-plane components in 2D. With ``g(a) = (1 - a)^2 + k_res``,
+the cell's degradation is the mean of ``g`` at its vertices (the vertex quadrature of
+``Int_e g(alpha_h) psi_e``, exact for the part of ``g`` linear in ``alpha``; it keeps the
+damage problem's bulk part diagonal, as for the thin film)::
+
+    P(u, alpha) = T sum_e |e| psi_e(u) gbar_e,      gbar_e = 1/(d + 1) sum_{i in e} g(alpha_i)
+
+``T`` the thickness in 2D (1 in 3D; energies and forces are those of the whole slab), ``|e|``
+the cell's area or volume. The u-problem at fixed ``alpha`` minimizes ``P(u, alpha) - f.u``
+(``f`` consistent nodal forces) over ``u`` with the constrained (Dirichlet) dofs prescribed:
+``K(alpha) = sum_e T gbar_e |e| B_e^T C B_e`` (the Hessian of ``P``), split into free (``f``)
+and constrained (``d``) dofs::
+
+    K_ff u_f = f_f - K_fd u_d,          reactions  r_d = (K u)_d - f_d
+
+``r_d`` is the force the support exerts on the body at each constrained dof. In the damage
+variables, ``P = sum_i c_i g(alpha_i)`` with the nodal energy
+``c_i = T sum_{e ni i} |e| psi_e / (d + 1)`` (:meth:`Elasticity.nodal_energy`), which is what
+the damage problem of :mod:`fem3d.damage` takes.
+
+Units: lengths in the mesh's unit, ``E`` a stress; forces in the unit of ``E`` times length^2,
+energies in force times length (for a 2D slab: of the whole thickness ``T``).
+
+Assembly
+========
+The CSR pattern of ``K_ff`` (the free dofs only: constrained rows and columns are not stored)
+is built once per mesh and set of constrained dofs; :meth:`Elasticity.matrix` rewrites its
+values in place with a Numba kernel that forms each element block on the fly from the
+basis gradients (:mod:`fem3d.kernels`) and finds its place through an int32 table of
+``(d + 1)^2`` offsets per cell. Measured on structured meshes of about 1e5 nodes (2 busy
+cores): 2D, 2e5 triangles, 2.8e6 entries: 23 ms with the table, 33 ms with a binary search
+in each dof row, 28-34 ms with a search in the node graph; 3D, 5.5e5 tetrahedra, 1.2e7
+entries: 264-281 ms, 421-431 ms and 329-361 ms. The table costs 35 MB there, a quarter of the
+matrix (142 MB). Cells ordered along the mesh (as gmsh numbers them) matter as much: the same
+3D mesh with its cells in six sweeps took 500 ms.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.sparse as sp
+
+from fem3d import kernels
+from fem3d.mesh import Mesh
+
+__all__ = ["Elasticity", "lame_parameters"]
+
+
+def lame_parameters(E: float, nu: float, plane: str | None = None) -> tuple[float, float]:
+    """``(lam, mu)`` of the energy density ``lam/2 tr(e)^2 + mu e:e``.
+
+    Parameters
+    ----------
+    E : float
+        Young's modulus (> 0).
+    nu : float
+        Poisson's ratio, in (-1, 0.5).
+    plane : {"stress", "strain", None}
+        2D model; None in 3D (same as ``"strain"``). Plane stress returns
+        ``lam* = 2 lam mu / (lam + 2 mu)``.
+    """
+    lam = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+    mu = E / (2.0 * (1.0 + nu))
+    if plane == "stress":
+        lam = 2.0 * lam * mu / (lam + 2.0 * mu)
+    return lam, mu
+
+
+def _number(name, value, low, high, low_open=False, high_open=True):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} = {value!r} must be a real number") from None
+    ok = math.isfinite(v) and (v > low if low_open else v >= low) and (v < high if high_open else v <= high)
+    if not ok:
+        raise ValueError(f"{name} = {value!r} outside the allowed range "
+                         f"{'(' if low_open else '['}{low}, {high}{')' if high_open else ']'}")
+    return v
+
+
+def _index_array(name, value, size):
+    """A strictly increasing int64 array of indices in [0, size)."""
+    a = np.asarray(value)
+    if a.ndim != 1 or not (a.size == 0 or np.issubdtype(a.dtype, np.integer)):
+        raise ValueError(f"{name} must be a 1D array of integers, got shape {a.shape} and dtype {a.dtype}")
+    a = a.astype(np.int64)
+    if a.size and (a[0] < 0 or a[-1] >= size):
+        raise ValueError(f"{name} has entries outside [0, {size}): min {a.min()}, max {a.max()}")
+    if np.any(np.diff(a) <= 0):
+        raise ValueError(f"{name} must be sorted without repeats")
+    return a
+
+
+def mesh_geometry(mesh: Mesh):
+    """``(grads, measure)`` of the mesh's cells (:func:`fem3d.kernels.cell_geometry`), after
+    checking that no cell is degenerate and every node belongs to a cell.
+
+    Raises
+    ------
+    ValueError
+        Naming the first degenerate cell or the first node of no cell.
+    """
+    if not isinstance(mesh, Mesh):
+        raise TypeError(f"mesh = {mesh!r} must be a fem3d.mesh.Mesh")
+    grads, measure = kernels.cell_geometry(mesh.points, mesh.cells)
+    bad = np.flatnonzero(~(measure > 0) | ~np.isfinite(measure))
+    if bad.size:
+        raise ValueError(f"{bad.size} degenerate cell(s) (zero area or volume), the first: cell {bad[0]}"
+                         f" with vertices {mesh.cells[bad[0]].tolist()}")
+    used = np.zeros(mesh.n_nodes, dtype=bool)
+    used[mesh.cells.ravel()] = True
+    if not used.all():
+        orphans = np.flatnonzero(~used)
+        raise ValueError(f"{orphans.size} node(s) belong to no cell (their unknowns would be undetermined),"
+                         f" the first: node {orphans[0]}")
+    return grads, measure
+
+
+class Elasticity:
+    """The elastic energy of the damaged P1 solid and its u-problem.
+
+    Parameters
+    ----------
+    mesh : fem3d.mesh.Mesh
+        Triangles (2D) or tetrahedra (3D).
+    E : float
+        Young's modulus, > 0 (a stress).
+    nu : float
+        Poisson's ratio, in (-1, 0.5).
+    plane : {"stress", "strain"}
+        2D model (ignored in 3D).
+    thickness : float
+        ``T`` > 0: 2D slab thickness (length unit); must be 1 in 3D.
+    k_res : float
+        Residual stiffness in ``g(a) = (1 - a)^2 + k_res``, >= 0.
+    constrained : array of int, optional
+        The constrained (Dirichlet) dofs ``node * d + component``, sorted without repeats.
+        Default: none (``K`` is then singular: the rigid-body modes).
+
+    Attributes
+    ----------
+    mesh : Mesh
+    dim : int
+    E, nu, thickness, k_res : float
+    plane : str or None
+        ``"stress"`` or ``"strain"`` in 2D, None in 3D.
+    lam, mu : float
+        The Lame parameters of the energy density (plane stress: ``lam*``).
+    grads : ndarray, shape (n_cells, d + 1, d)
+        Gradients of the P1 basis functions (1 / length).
+    measure : ndarray, shape (n_cells,)
+        Cell areas or volumes.
+    nnz : int
+        Stored entries of ``K_ff``.
+    """
+
+    def __init__(self, mesh: Mesh, E: float, nu: float, *, plane: str = "stress", thickness: float = 1.0,
+                 k_res: float = 1e-6, constrained=None):
+        self.grads, self.measure = mesh_geometry(mesh)
+        self.mesh = mesh
+        self.dim = d = mesh.dim
+        self.E = _number("E", E, 0.0, math.inf, low_open=True)
+        self.nu = _number("nu", nu, -1.0, 0.5, low_open=True)
+        self.k_res = _number("k_res", k_res, 0.0, math.inf)
+        self.thickness = _number("thickness", thickness, 0.0, math.inf, low_open=True)
+        if d == 2:
+            if plane not in ("stress", "strain"):
+                raise ValueError(f'plane = {plane!r} must be "stress" or "strain"')
+            self.plane = plane
+        else:
+            if self.thickness != 1.0:
+                raise ValueError(f"thickness = {thickness!r} must be 1 for a 3D mesh (energies and forces are"
+                                 " those of the solid itself)")
+            self.plane = None
+        self.lam, self.mu = lame_parameters(self.E, self.nu, self.plane)
+
+        n_dofs = d * mesh.n_nodes
+        con = np.zeros(0, dtype=np.int64) if constrained is None else _index_array("constrained", constrained, n_dofs)
+        mask = np.ones(n_dofs, dtype=bool)
+        mask[con] = False
+        self._constrained = con
+        self._free = np.flatnonzero(mask).astype(np.int64)
+        self._free_index = np.full(n_dofs, -1, dtype=np.int64)
+        self._free_index[self._free] = np.arange(self._free.size)
+        self._con_index = np.full(n_dofs, -1, dtype=np.int64)
+        self._con_index[con] = np.arange(con.size)
+        for a in (self._constrained, self._free):
+            a.flags.writeable = False
+
+        if self._free.size >= 2**31:
+            raise ValueError(f"{self._free.size} free dofs: more than the int32 column indices hold")
+        node_indptr, node_indices = kernels.node_graph(mesh.cells, mesh.n_nodes)
+        indptr, indices, entry_offset = kernels.free_pattern(node_indptr, node_indices, self._free_index, d,
+                                                             self._free.size)
+        self._offsets = kernels.cell_offsets(mesh.cells, node_indptr, node_indices, entry_offset)
+        self._indptr = indptr  # int64, for the kernel; the matrix may hold int32 copies
+        n = self._free.size
+        self._matrix = sp.csr_matrix((np.zeros(indices.size), indices, indptr), shape=(n, n))
+        self._matrix.has_sorted_indices = True
+        self.nnz = int(indices.size)
+        # cells with a constrained dof: the only ones in K_fd and in the constrained rows
+        node_con = np.zeros(mesh.n_nodes, dtype=bool)
+        node_con[con // d] = True
+        self._boundary_cells = np.flatnonzero(node_con[mesh.cells].any(axis=1)).astype(np.int64)
+
+    # --- sizes and dofs -----------------------------------------------------------------------
+    @property
+    def n_dofs(self) -> int:
+        """Number of displacement dofs, ``d * n_nodes``."""
+        return self.dim * self.mesh.n_nodes
+
+    @property
+    def free(self) -> np.ndarray:
+        """The free dofs, increasing, int64 (read-only), shape (n_free,)."""
+        return self._free
+
+    @property
+    def constrained(self) -> np.ndarray:
+        """The constrained dofs, increasing, int64 (read-only), shape (n_constrained,)."""
+        return self._constrained
+
+    def expand(self, u_free, u_constrained) -> np.ndarray:
+        """The full displacement from its free and constrained parts.
+
+        Parameters
+        ----------
+        u_free : ndarray, shape (n_free,)
+        u_constrained : ndarray, shape (n_constrained,) or float
+            In the order of :attr:`constrained`.
+
+        Returns
+        -------
+        u : ndarray, shape (n_dofs,)
+        """
+        u = np.empty(self.n_dofs)
+        u[self._free] = self._vector("u_free", u_free, self._free.size)
+        u[self._constrained] = u_constrained
+        return u
+
+    # --- helpers ------------------------------------------------------------------------------
+    def _vector(self, name, x, size):
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        if x.shape != (size,):
+            raise ValueError(f"{name} must have shape ({size},), got {x.shape}")
+        return x
+
+    def degradation(self, alpha) -> np.ndarray:
+        """Cell degradation ``gbar_e``, the mean of ``(1 - alpha)^2 + k_res`` at the cell's
+        vertices, shape (n_cells,).
+
+        Parameters
+        ----------
+        alpha : ndarray, shape (n_nodes,)
+        """
+        alpha = self._vector("alpha", alpha, self.mesh.n_nodes)
+        return kernels.cell_degradation(alpha, self.mesh.cells, self.k_res)
+
+    def _coef(self, alpha, cell_factor):
+        if cell_factor is None:
+            return self.degradation(alpha)
+        if alpha is not None:
+            raise ValueError("give alpha or cell_factor, not both")
+        return self._vector("cell_factor", cell_factor, self.mesh.n_cells)
+
+    # --- the linear system --------------------------------------------------------------------
+    def matrix(self, alpha, *, cell_factor=None) -> sp.csr_matrix:
+        """The free block ``K_ff(alpha)`` of the stiffness matrix.
+
+        The same ``csr_matrix`` is returned by every call, its ``data`` rewritten in place
+        (copy it to keep an earlier one; do not change its pattern). Sorted indices;
+        symmetric; positive definite when the constrained dofs fix the rigid-body modes.
+
+        Parameters
+        ----------
+        alpha : ndarray, shape (n_nodes,)
+            Damage at the nodes.
+        cell_factor : ndarray, shape (n_cells,), optional
+            A per-cell factor to use in place of ``gbar_e`` (then ``alpha`` must be None),
+            e.g. ``H_e gbar_e + 1 - H_e`` for a split frozen per cell.
+
+        Returns
+        -------
+        K_ff : scipy.sparse.csr_matrix, shape (n_free, n_free)
+            Units of ``E`` times length (force per displacement).
+        """
+        coef = self._coef(alpha, cell_factor)
+        kernels.stiffness_values(self.grads, self.measure, self.mesh.cells, coef, self.thickness, self.lam,
+                                 self.mu, self._free_index, self._indptr, self._offsets, self._matrix.data)
+        return self._matrix
+
+    def rhs(self, alpha, u_constrained, f=None, *, cell_factor=None) -> np.ndarray:
+        """Right-hand side ``f_f - K_fd(alpha) u_d`` of the u-problem.
+
+        Parameters
+        ----------
+        alpha : ndarray, shape (n_nodes,)
+        u_constrained : ndarray, shape (n_constrained,), or float
+            Prescribed displacements (length), in the order of :attr:`constrained`.
+        f : ndarray, shape (n_dofs,), optional
+            Consistent nodal forces (force); only the free entries enter.
+        cell_factor : ndarray, shape (n_cells,), optional
+            See :meth:`matrix`.
+
+        Returns
+        -------
+        ndarray, shape (n_free,)
+            Force.
+        """
+        coef = self._coef(alpha, cell_factor)
+        u_d = np.ascontiguousarray(np.broadcast_to(np.asarray(u_constrained, dtype=np.float64),
+                                                   self._constrained.shape))
+        out = np.zeros(self._free.size) if f is None else self._vector("f", f, self.n_dofs)[self._free].copy()
+        kernels.constrained_rhs(self.grads, self.measure, self.mesh.cells, self._boundary_cells, coef,
+                                self.thickness, self.lam, self.mu, self._free_index, self._con_index, u_d, out)
+        return out
+
+    def reactions(self, alpha, u, f=None, *, cell_factor=None) -> np.ndarray:
+        """The residual ``K(alpha) u - f`` on the constrained dofs: the forces the supports
+        exert on the body, per dof.
+
+        At a solution of the u-problem they balance the applied forces: their sum and
+        moment equal minus those of ``f``. Along a prescribed displacement ``t v`` (``v`` on
+        the constrained dofs), ``v . reactions`` is ``dP/dt`` (``P`` the elastic energy at
+        the solution, ``f = 0``).
+
+        Parameters
+        ----------
+        alpha : ndarray, shape (n_nodes,)
+        u : ndarray, shape (n_dofs,)
+            The full displacement.
+        f : ndarray, shape (n_dofs,), optional
+            Consistent nodal forces; default 0.
+        cell_factor : ndarray, shape (n_cells,), optional
+            See :meth:`matrix`.
+
+        Returns
+        -------
+        ndarray, shape (n_constrained,)
+            Force, in the order of :attr:`constrained`.
+        """
+        coef = self._coef(alpha, cell_factor)
+        u = self._vector("u", u, self.n_dofs)
+        out = np.zeros(self._constrained.size)
+        kernels.constrained_reactions(self.grads, self.measure, self.mesh.cells, self._boundary_cells, coef,
+                                      self.thickness, self.lam, self.mu, self._con_index, u, out)
+        if f is not None:
+            out -= self._vector("f", f, self.n_dofs)[self._constrained]
+        return out
+
+    # --- energies and fields ------------------------------------------------------------------
+    def strain(self, u) -> np.ndarray:
+        """Cell strains in Voigt order with tensor shear components, 2D ``(e_xx, e_yy, e_xy)``,
+        3D ``(e_xx, e_yy, e_zz, e_yz, e_xz, e_xy)``; shape (n_cells, 3 or 6), dimensionless."""
+        return kernels.cell_strain(self.grads, self.mesh.cells, self._vector("u", u, self.n_dofs))
+
+    def stress(self, u) -> np.ndarray:
+        """Undamaged cell stresses ``C e(u)`` in Voigt order, 2D ``(s_xx, s_yy, s_xy)`` (in plane;
+        plane strain's ``s_zz = lam (e_xx + e_yy)`` is not returned), 3D
+        ``(s_xx, s_yy, s_zz, s_yz, s_xz, s_xy)``; shape (n_cells, 3 or 6), units of ``E``.
+        The damaged stress of cell ``e`` is ``gbar_e`` times this."""
+        e = self.strain(u)
+        d = self.dim
+        s = 2.0 * self.mu * e
+        s[:, :d] += self.lam * e[:, :d].sum(axis=1, keepdims=True)
+        return s
+
+    def strain_energy_density(self, u) -> np.ndarray:
+        """Undamaged strain-energy density ``psi_e = 1/2 e:C:e`` of each cell, shape (n_cells,)
+        (energy per volume, units of ``E``)."""
+        return kernels.strain_energy_density(self.grads, self.mesh.cells, self._vector("u", u, self.n_dofs),
+                                             self.lam, self.mu)
+
+    def nodal_energy(self, u) -> np.ndarray:
+        """The nodal energy ``c_i = T sum_{e ni i} |e| psi_e / (d + 1)``, shape (n_nodes,) (energy):
+        ``P(u, alpha) = sum_i c_i g(alpha_i)``."""
+        out = np.empty(self.mesh.n_nodes)
+        kernels.nodal_energy(self.strain_energy_density(u), self.measure, self.mesh.cells, self.thickness, out)
+        return out
+
+    def elastic_energy(self, u, alpha) -> float:
+        """``P(u, alpha) = T sum_e |e| psi_e(u) gbar_e`` (energy), summed over the cells."""
+        psi = self.strain_energy_density(u)
+        return float(self.thickness * np.dot(self.measure * psi, self.degradation(alpha)))
+
+    # --- near-nullspace -----------------------------------------------------------------------
+    def rigid_modes(self) -> np.ndarray:
+        """The rigid-body modes restricted to the free dofs, for AMG's near-nullspace.
+
+        Columns: the ``d`` unit translations, then the rotations about the centroid of the
+        nodes (2D: about z; 3D: about x, y, z), divided by the mesh's largest extent so that
+        every column is of order 1.
+
+        Returns
+        -------
+        ndarray, shape (n_free, 3) in 2D, (n_free, 6) in 3D
+        """
+        d, n = self.dim, self.mesh.n_nodes
+        x = self.mesh.points - self.mesh.points.mean(axis=0)
+        x = x / (float(np.ptp(self.mesh.points, axis=0).max()) or 1.0)
+        B = np.zeros((n, d, 3 if d == 2 else 6))
+        for a in range(d):
+            B[:, a, a] = 1.0
+        if d == 2:
+            B[:, 0, 2], B[:, 1, 2] = -x[:, 1], x[:, 0]
+        else:
+            # rotation about axis k: omega_k e_k x (x, y, z)
+            B[:, 1, 3], B[:, 2, 3] = -x[:, 2], x[:, 1]  # about x: (0, -z, y)
+            B[:, 0, 4], B[:, 2, 4] = x[:, 2], -x[:, 0]  # about y: (z, 0, -x)
+            B[:, 0, 5], B[:, 1, 5] = -x[:, 1], x[:, 0]  # about z: (-y, x, 0)
+        return np.ascontiguousarray(B.reshape(n * d, -1)[self._free])

@@ -1,0 +1,193 @@
+"""Bulk solids by finite elements as a model kind (``kind = "fem"``).
+
+:data:`KIND` is what :mod:`thinfilm.kinds` finds. It reads ``kind = "fem"`` scenes
+(:mod:`fem3d.scene`), meshes the geometry with gmsh (:mod:`fem3d.geometry`), builds the P1
+elasticity and damage operators and the boundary conditions, chooses the linear solver, and
+adds to what every run writes the reaction force, the prescribed displacement and the crack
+length of each step, the crack events, and the figures of :mod:`fem3d.plots`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fem3d import scene as fem_scene
+from thinfilm.run import EvolutionKind, Setup
+from thinfilm.scene import SceneError
+
+__all__ = ["KIND", "FemKind", "build_mesh", "build_model", "crack_lengths", "crack_events", "AMG_MIN_DOFS_3D"]
+
+#: ``[solver] linear = "auto"`` uses AMG-preconditioned CG for 3D problems from this many free
+#: dofs, a sparse direct solver below and in 2D (``docs/solvers.md#p1-finite-elements``: in 2D
+#: the refactorization wins by 25-40x; in 3D a direct factorization of ~300k dofs took 60 s and
+#: 2.9 GB where AMG took 36 s and 1 GB).
+AMG_MIN_DOFS_3D = 100_000
+
+
+def build_mesh(scene):
+    """The scene's mesh (gmsh, deterministic), with its named groups."""
+    from fem3d import geometry
+
+    g = scene.geometry
+    if g.kind == "file":
+        mesh = geometry.from_file(g.file)
+        if mesh.dim != scene.model.dim:
+            raise SceneError(scene.source, "geometry.file", f"= {g.file!r}: a {mesh.dim}D mesh, but model.dim ="
+                             f" {scene.model.dim}")
+        return mesh
+    function = {"lpanel": geometry.lpanel, "three_point_bending": geometry.three_point_bending}[g.kind]
+    return function(h=scene.mesh.h, h_coarse=scene.mesh.h_coarse, **dict(g.options))
+
+
+def build_model(scene, mesh):
+    """The :class:`fem3d.model.FemModel` of a scene on its mesh, with its linear solver.
+
+    Raises
+    ------
+    SceneError
+        If a group the scene names is not in the mesh.
+    """
+    from fem3d.damage import DamageOperator
+    from fem3d.elasticity import Elasticity
+    from fem3d.model import FemModel, Loads
+    from thinfilm.solvers.linear import make_solver
+
+    m = scene.model
+    loads = Loads(mesh, scene.load, m.thickness, scene.source)
+    fixed = []
+    for region in m.undamaged:
+        if region not in mesh.cell_groups:
+            raise SceneError(scene.source, "model.undamaged", f'= "{region}": no region of that name in the mesh'
+                             f" (its regions: {', '.join(sorted(mesh.cell_groups)) or '-'})")
+        fixed.append(mesh.nodes_of(region))
+    fixed_nodes = np.unique(np.concatenate(fixed)) if fixed else None
+    elasticity = Elasticity(mesh, m.E, m.nu, plane=m.plane if m.dim == 2 else "stress", thickness=m.thickness,
+                            k_res=m.k_res, constrained=loads.constrained)
+    damage = DamageOperator(mesh, m.Gc, m.eps, at=m.at, thickness=m.thickness, fixed_nodes=fixed_nodes)
+    K = elasticity.matrix(np.zeros(mesh.n_nodes))
+    kind = scene.solver.linear
+    if kind == "auto":
+        kind = "amg" if (m.dim == 3 and K.shape[0] >= AMG_MIN_DOFS_3D) else "direct"
+    solver = make_solver(kind, K, near_nullspace=elasticity.rigid_modes() if kind == "amg" else None)
+    return FemModel(mesh, elasticity, damage, loads, solver)
+
+
+def crack_lengths(results):
+    """The crack length of each finished step (2D: surface energy over ``Gc T``; 3D: an area,
+    over ``Gc``) and the growth in one step that counts as an event (:func:`crack_events`):
+    the width of a crack band, ``4 eps``, times the mesh's extent in z in 3D."""
+    p = results.parameters
+    length = np.asarray(results.steps["surface"]) / (p["Gc"] * p["thickness"])
+    jump = 4.0 * p["eps"]
+    if int(p["dim"]) == 3:
+        jump *= float(np.ptp(results.discretization.points[:, 2]))
+    return length, jump
+
+
+def crack_events(t, length, jump):
+    """The steps where the crack length grows by more than ``jump`` at once.
+
+    Returns
+    -------
+    list of dict
+        ``{"t", "crack_length_before", "crack_length"}`` for each such step.
+    """
+    out = []
+    for k in range(1, len(t)):
+        if length[k] - length[k - 1] > jump:
+            out.append({"t": float(t[k]), "crack_length_before": float(length[k - 1]),
+                        "crack_length": float(length[k])})
+    return out
+
+
+class FemKind(EvolutionKind):
+    """``kind = "fem"``: linear elasticity with AT damage on P1 triangles or tetrahedra."""
+
+    name = "fem"
+    required_datasets = ("mesh/points", "fields/u", "fields/alpha")
+    labels = {"alpha": r"damage $\alpha$", "u": "displacement u", "energy": "energy (scene units)"}
+    length_unit = ""
+
+    def parse(self, source, data, text):
+        return fem_scene.parse(source, data, text)
+
+    def setup(self, scene):
+        mesh = build_mesh(scene)
+        model = build_model(scene, mesh)
+        m, loads = scene.model, model.loads
+        loaded = list(loads.loaded)
+        lines = [f"mesh: {mesh.dim}D, {mesh.n_nodes} nodes, {mesh.n_cells} {'triangles' if mesh.dim == 2 else 'tetrahedra'};"
+                 f" h = {scene.mesh.h:g} where the crack may run (eps/h = {m.eps / scene.mesh.h:.3g}),"
+                 f" {scene.mesh.h_coarse:g} elsewhere",
+                 f"u-solve: {model.linear_solver.kind}, {model.elasticity.free.size} free dofs;"
+                 f" damage held at 0 on {0 if model.damage.fixed_nodes is None else model.damage.fixed_nodes.size}"
+                 " nodes"]
+
+        def observe(u, alpha, t):
+            forces = model.forces(u, alpha, t)
+            out = {f"force_{group}": forces[group] for group in loaded[1:]}
+            if loaded:
+                out["force"] = forces[loaded[0]]
+                out["displacement"] = t * loads.displacement_scale[loaded[0]]
+            return out
+
+        observables = (("force", "displacement") if loaded else ()) + tuple(f"force_{g}" for g in loaded[1:])
+        return Setup(model=model, discretization=mesh.description(), components={"u": mesh.dim}, observe=observe,
+                     observables=observables, log=lines)
+
+    def parameters(self, scene):
+        m, g = scene.model, scene.geometry
+        return {"dim": m.dim, "E": m.E, "nu": m.nu, "Gc": m.Gc, "eps": m.eps, "k_res": m.k_res, "at": m.at,
+                "plane": m.plane, "thickness": m.thickness, "undamaged": ",".join(m.undamaged),
+                "geometry": g.kind, **({"file": g.file} if g.file else {}), "h": scene.mesh.h,
+                "h_coarse": scene.mesh.h_coarse, "t_max": scene.load.t_max, "steps": scene.load.steps,
+                "loaded": ",".join(scene.load.loaded),
+                **({"snapshots": scene.snapshots} if scene.snapshots else {}),
+                **({"reference": scene.reference} if scene.reference else {})}
+
+    def warnings(self, scene):
+        m = scene.model
+        out = []
+        if m.eps < 2.0 * scene.mesh.h:
+            out.append(f"eps = {m.eps:g} is less than 2 h (h = {scene.mesh.h:g}): the damage profile is not resolved"
+                       " and the crack's effective toughness is inflated")
+        return out
+
+    def summary(self, scene, results):
+        length, jump = crack_lengths(results)
+        steps = {"crack_length": length.tolist()}
+        for name in ("force", "displacement"):
+            if name in results.steps:
+                steps[name] = results.steps[name].tolist()
+        return {"events": crack_events(results.t, length, jump), "steps": steps}
+
+    def report(self, scene, results, summary):
+        lines = [f"t = {e['t']:.6g}: crack length {e['crack_length_before']:.4g} -> {e['crack_length']:.4g}"
+                 for e in summary["events"]]
+        if "force" in results.steps and results.n:
+            k = int(np.argmax(results.steps["force"]))
+            lines.append(f"peak force {results.steps['force'][k]:.6g} at t = {results.t[k]:.6g}")
+        return lines
+
+    def figures(self, results, outdir):
+        from fem3d.plots import crack_length_figure, crack_surface_figure, force_displacement_figure
+
+        p = results.parameters
+        length, jump = crack_lengths(results)
+        paths = [crack_length_figure(results, outdir, length, int(p["dim"]))]
+        if "force" in results.steps:
+            events = [e["t"] for e in crack_events(results.t, length, jump)]
+            paths.insert(0, force_displacement_figure(results, outdir, p.get("reference"), events))
+        if int(p["dim"]) == 3:
+            from fem3d.plots import alpha_slices_figure
+
+            paths += [crack_surface_figure(results, outdir), alpha_slices_figure(results, outdir)]
+        return paths
+
+    def title(self, parameters):
+        p = parameters
+        return (f"AT{p.get('at', '?')}, E = {p.get('E', float('nan')):g}, Gc = {p.get('Gc', float('nan')):g},"
+                f" $\\epsilon$ = {p.get('eps', float('nan')):g}")
+
+
+KIND = FemKind()

@@ -1,0 +1,164 @@
+"""The finite-element solid as the evolution engine sees it, and its boundary conditions.
+
+:class:`Loads` turns the scene's ``[load]`` (prescribed displacements on named groups, with
+components left free; tractions on boundaries; forces shared by a group's nodes, all times
+``t``) into constrained dofs, their unit values and a unit load vector. :class:`FemModel`
+binds the mesh, the elasticity and damage operators (:mod:`fem3d.elasticity`,
+:mod:`fem3d.damage`), the loads and a linear solver into the
+:class:`thinfilm.engine.protocol.FractureModel` protocol.
+
+The elastic energy the engine sees is the bulk potential ``P(u, alpha) - t f.u`` (the work of
+the forces subtracted), which is homogeneous of degree 2 in ``(t, u)``: what backtracking
+needs. The reactions are read from the residual ``K u - t f`` on the constrained dofs, the
+work-conjugate of the prescribed displacements, not from an average of stresses.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fem3d.mesh import Mesh
+from thinfilm.scene import SceneError
+
+__all__ = ["Loads", "FemModel"]
+
+
+class Loads:
+    """Boundary conditions and loads on a mesh, all proportional to ``t``.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    loading : fem3d.scene.Loading
+    thickness : float
+        2D slab thickness (tractions are per unit area of the slab's faces).
+    source : str
+        The scene file, for messages naming a missing group.
+
+    Attributes
+    ----------
+    constrained : ndarray of int64, shape (k,)
+        Sorted constrained dofs (``node * dim + component``).
+    unit_values : ndarray, shape (k,)
+        Their prescribed values at ``t = 1``.
+    unit_force : ndarray, shape (n_dofs,)
+        The load vector at ``t = 1`` (tractions and forces).
+    loaded : dict of str -> (dofs, direction)
+        For each group with a non-zero prescribed displacement: the positions of its dofs in
+        ``constrained`` and the unit direction of its displacement, shape (k_g,) each.
+    """
+
+    def __init__(self, mesh: Mesh, loading, thickness=1.0, source="<string>"):
+        d = mesh.dim
+        values = {}
+        for group in loading.fixed:
+            for node in self._nodes(mesh, group, "load.fixed", source):
+                for c in range(d):
+                    values[node * d + c] = 0.0
+        directions = {}
+        for group, c, value in loading.displacement:
+            nodes = self._nodes(mesh, group, f"load.displacement.{group}", source)
+            for node in nodes:
+                values[node * d + c] = value
+            if value != 0.0:
+                directions.setdefault(group, (nodes, np.zeros(d)))[1][c] = value
+        self.constrained = np.array(sorted(values), dtype=np.int64)
+        self.unit_values = np.array([values[k] for k in self.constrained], dtype=np.float64)
+        position = {dof: i for i, dof in enumerate(self.constrained)}
+        self.loaded = {}
+        for group, (nodes, vector) in directions.items():
+            # The reaction along the prescribed motion: sum over the group's nodes of R . v/|v|.
+            unit = vector / np.linalg.norm(vector)
+            dofs = [position[node * d + c] for node in nodes for c in range(d) if unit[c] != 0.0]
+            weights = [unit[c] for node in nodes for c in range(d) if unit[c] != 0.0]
+            self.loaded[group] = (np.array(dofs, dtype=np.int64), np.array(weights))
+        self.displacement_scale = {group: float(np.linalg.norm(v)) for group, (_, v) in directions.items()}
+        f = np.zeros(mesh.n_nodes * d)
+        for group, vector in loading.traction:
+            facets = mesh.facet_groups.get(group)
+            if facets is None:
+                raise SceneError(source, f"load.traction.{group}", f"no boundary {group!r} in the mesh (its"
+                                 f" boundaries: {', '.join(sorted(mesh.facet_groups)) or '-'})")
+            area = _facet_measures(mesh.points, facets) * (thickness if d == 2 else 1.0)
+            for c in range(d):
+                # P1 facet load: each vertex gets 1/d of the facet's share (exact for a constant traction).
+                np.add.at(f, facets * d + c, np.repeat(area[:, None] / d, d, axis=1) * vector[c])
+        for group, vector in loading.force:
+            nodes = self._nodes(mesh, group, f"load.force.{group}", source)
+            for c in range(d):
+                f[nodes * d + c] += vector[c] / len(nodes)
+        self.unit_force = f
+
+    @staticmethod
+    def _nodes(mesh, group, key, source):
+        try:
+            return mesh.nodes_of(group)
+        except KeyError:
+            raise SceneError(source, key, f"no group {group!r} in the mesh (its groups: cells"
+                             f" {', '.join(sorted(mesh.cell_groups)) or '-'}; boundaries"
+                             f" {', '.join(sorted(mesh.facet_groups)) or '-'}; points"
+                             f" {', '.join(sorted(mesh.node_groups)) or '-'})") from None
+
+
+def _facet_measures(points, facets):
+    """Lengths (2D) or areas (3D) of boundary facets, shape (k,)."""
+    p = points[facets]
+    if facets.shape[1] == 2:
+        return np.linalg.norm(p[:, 1] - p[:, 0], axis=1)
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+
+
+class FemModel:
+    """P1 elasticity with AT damage on a mesh, in the engine's protocol.
+
+    Parameters
+    ----------
+    mesh : Mesh
+    elasticity : fem3d.elasticity.Elasticity
+        Built with the loads' constrained dofs.
+    damage : fem3d.damage.DamageOperator
+    loads : Loads
+    linear_solver : object
+        A solver of :mod:`thinfilm.solvers.linear` made for ``elasticity.matrix``'s pattern.
+
+    Attributes
+    ----------
+    n_alpha : int
+        One damage unknown per node.
+    proportional : bool
+        True: every load is ``t`` times a fixed one.
+    toughness : float
+        ``Gc`` times the thickness in 2D (the energy of a unit crack length), ``Gc`` in 3D.
+    """
+
+    proportional = True
+
+    def __init__(self, mesh, elasticity, damage, loads, linear_solver):
+        self.mesh, self.elasticity, self.damage, self.loads = mesh, elasticity, damage, loads
+        self.linear_solver = linear_solver
+        self.n_alpha = mesh.n_nodes
+        self.toughness = float(damage.Gc * damage.thickness)
+        self.last_solve_info = None
+
+    def solve_u(self, alpha, t, u0, rtol):
+        """The displacement minimizing the energy at fixed ``alpha``, shape ``(n_dofs,)``."""
+        el = self.elasticity
+        self.linear_solver.update(el.matrix(alpha))
+        u_constrained = t * self.loads.unit_values
+        f = t * self.loads.unit_force
+        rhs = el.rhs(alpha, u_constrained, f)
+        x0 = None if u0 is None else np.asarray(u0)[el.free]
+        u_free, self.last_solve_info = self.linear_solver.solve(rhs, x0=x0, rtol=rtol)
+        return el.expand(u_free, u_constrained)
+
+    def damage_problem(self, u, t):
+        return self.damage.problem(self.elasticity.nodal_energy(u))
+
+    def energies(self, u, alpha, t):
+        work = t * float(self.loads.unit_force @ u)
+        return self.elasticity.elastic_energy(u, alpha) - work, self.damage.surface_energy(alpha)
+
+    def forces(self, u, alpha, t):
+        """The reaction along the prescribed motion of each loaded group: ``{group: force}``."""
+        reactions = self.elasticity.reactions(alpha, u, t * self.loads.unit_force)
+        return {group: float(weights @ reactions[dofs]) for group, (dofs, weights) in self.loads.loaded.items()}

@@ -1,0 +1,185 @@
+"""The finite-element runs' own figures, drawn from their results file alone.
+
+Beside what every run gets (:mod:`thinfilm.plots`: energies, iterations, and in 2D the damage
+on the triangles at chosen loads):
+
+* ``force_displacement.png``: the reaction on the loaded boundary against its prescribed
+  displacement, crack events marked, and a measured curve if the scene names one
+  (``[output] reference``);
+* ``crack_length.png``: the crack length (2D) or area (3D), surface energy over ``Gc``,
+  against the load;
+* 3D: ``crack_surface.png``, the nodes with ``alpha >= 0.9`` at the last finished step seen
+  from three sides, and ``alpha_slices.png``, the damage on planes across the thickness
+  (exact sections of the P1 field: each cut tetrahedron contributes the polygon where the
+  plane meets it, coloured by the interpolated damage).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.collections import PolyCollection
+
+from thinfilm.plots import ALPHA_CMAP, DPI, line_figure, plt, progress_note
+
+__all__ = ["force_displacement_figure", "crack_length_figure", "crack_surface_figure", "slice_polygons",
+           "alpha_slices_figure", "read_reference"]
+
+#: Damage at which a node counts as broken in the figures.
+BROKEN = 0.9
+
+
+def read_reference(path):
+    """A measured curve: a CSV of two columns (displacement, force), ``#`` comment lines
+    and one header line allowed. Returns ``(displacement, force)`` arrays."""
+    rows = []
+    for line in Path(path).read_text(encoding="utf-8").splitlines():
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        try:
+            rows.append([float(v) for v in line.split(",")[:2]])
+        except ValueError:
+            continue  # the header
+    data = np.array(rows)
+    return data[:, 0], data[:, 1]
+
+
+def force_displacement_figure(res, outdir, reference=None, events=()):
+    """``force_displacement.png``; ``res`` an open results file with ``force`` and ``displacement``."""
+    path = Path(outdir) / "force_displacement.png"
+    fig, ax = line_figure(6.4, 4.4)
+    u, force = res.steps["displacement"], res.steps["force"]
+    ax.plot(u, force, "o-", ms=2.5, lw=1.4, color="black", label="computed")
+    for t_event in events:
+        k = int(np.argmin(np.abs(res.t - t_event)))
+        ax.plot(u[k], force[k], "v", ms=8, mfc="none", color="tab:red")
+    if events:
+        ax.plot([], [], "v", ms=8, mfc="none", color="tab:red", label="crack length jumps")
+    if reference is not None:
+        ref_u, ref_f = read_reference(reference)
+        ax.plot(ref_u, ref_f, "-", lw=1.2, color="tab:blue", label=f"measured ({Path(reference).name})")
+    ax.set_xlim(left=0.0)
+    ax.set_ylim(bottom=min(0.0, float(np.min(force))))
+    ax.set_xlabel("prescribed displacement")
+    ax.set_ylabel("reaction force")
+    ax.set_title(f"force against displacement{progress_note(res)}", fontsize=10)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
+def crack_length_figure(res, outdir, length, dim):
+    """``crack_length.png``: ``length`` (surface energy / Gc, per step) against t."""
+    path = Path(outdir) / "crack_length.png"
+    fig, ax = line_figure(6.4, 4.2)
+    ax.plot(res.t, length, "o-", ms=2.5, color="tab:red")
+    ax.set_xlim(0.0, max(res.t_max, res.t[-1]))
+    ax.set_ylim(bottom=0.0)
+    ax.set_xlabel("load t")
+    ax.set_ylabel("crack length S/(Gc T)" if dim == 2 else "crack area S/Gc")
+    ax.set_title(f"crack {'length' if dim == 2 else 'area'} from the surface energy{progress_note(res)}",
+                 fontsize=10)
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
+def crack_surface_figure(res, outdir):
+    """``crack_surface.png``: the broken nodes of the last finished step, three views."""
+    path = Path(outdir) / "crack_surface.png"
+    points = res.discretization.points
+    alpha = res.field("alpha", res.n - 1)
+    broken = alpha >= BROKEN
+    low, high = points.min(axis=0), points.max(axis=0)
+    fig, axes = plt.subplots(1, 3, figsize=(12.0, 4.2), layout="constrained")
+    for ax, (i, j), view in zip(axes, ((0, 1), (0, 2), (1, 2)), ("top (x, y)", "front (x, z)", "side (y, z)")):
+        other = 3 - i - j
+        outline = ax.scatter(points[::max(1, len(points) // 4000), i], points[::max(1, len(points) // 4000), j],
+                             s=0.3, color="0.85")
+        outline.set_rasterized(True)
+        image = ax.scatter(points[broken, i], points[broken, j], c=points[broken, other], s=2, cmap="viridis",
+                           vmin=low[other], vmax=high[other])
+        ax.set_xlim(low[i], high[i])
+        ax.set_ylim(low[j], high[j])
+        ax.set_aspect("equal")
+        ax.set_title(f"{view}, colour: {'xyz'[other]}", fontsize=9)
+        ax.set_xlabel("xyz"[i])
+        ax.set_ylabel("xyz"[j])
+    fig.colorbar(image, ax=axes, shrink=0.8, label="depth along the view")
+    fig.suptitle(f"crack surface (alpha >= {BROKEN}) at t = {res.t[res.n - 1]:.4g}: {int(broken.sum())} nodes"
+                 f"{progress_note(res)}", fontsize=10)
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
+#: The six edges of a tetrahedron, as pairs of its local vertices.
+_EDGES = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
+
+
+def slice_polygons(points, cells, values, axis, level):
+    """The exact section of a P1 field on tetrahedra by the plane ``x_axis = level``.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n, 3)
+    cells : ndarray of int, shape (m, 4)
+    values : ndarray, shape (n,)
+        Nodal values.
+    axis : {0, 1, 2}
+    level : float
+
+    Returns
+    -------
+    polygons : list of ndarray, each shape (3 or 4, 2)
+        In the plane's two other coordinates (in increasing axis order).
+    means : ndarray, shape (len(polygons),)
+        The field's mean over each polygon's vertices.
+    """
+    coordinate = points[:, axis]
+    in_plane = [a for a in range(3) if a != axis]
+    c = coordinate[cells]
+    cut = np.flatnonzero((c.min(axis=1) < level) & (c.max(axis=1) > level))
+    polygons, means = [], []
+    for e in cut:
+        a, b = cells[e][_EDGES[:, 0]], cells[e][_EDGES[:, 1]]
+        ca, cb = coordinate[a], coordinate[b]
+        crossing = (ca - level) * (cb - level) < 0
+        s = (level - ca[crossing]) / (cb[crossing] - ca[crossing])
+        xy = points[a[crossing]][:, in_plane] * (1 - s)[:, None] + points[b[crossing]][:, in_plane] * s[:, None]
+        v = values[a[crossing]] * (1 - s) + values[b[crossing]] * s
+        centre = xy.mean(axis=0)
+        order = np.argsort(np.arctan2(xy[:, 1] - centre[1], xy[:, 0] - centre[0]))
+        polygons.append(xy[order])
+        means.append(v.mean())
+    return polygons, np.array(means)
+
+
+def alpha_slices_figure(res, outdir, count=3):
+    """``alpha_slices.png``: the damage of the last finished step on ``count`` planes z = const."""
+    path = Path(outdir) / "alpha_slices.png"
+    d = res.discretization
+    alpha = res.field("alpha", res.n - 1)
+    z0, z1 = d.points[:, 2].min(), d.points[:, 2].max()
+    levels = z0 + (z1 - z0) * (np.arange(count) + 0.5) / count
+    low, high = d.points.min(axis=0), d.points.max(axis=0)
+    fig, axes = plt.subplots(1, count, figsize=(4.2 * count, 4.2), layout="constrained", squeeze=False)
+    for ax, level in zip(axes[0], levels):
+        polygons, means = slice_polygons(d.points, d.cells, alpha, 2, level)
+        collection = PolyCollection(polygons, array=means, cmap=ALPHA_CMAP, edgecolors="face", linewidths=0.1)
+        collection.set_clim(0.0, 1.0)
+        ax.add_collection(collection)
+        ax.set_xlim(low[0], high[0])
+        ax.set_ylim(low[1], high[1])
+        ax.set_aspect("equal")
+        ax.set_title(f"z = {level:.4g}", fontsize=9)
+        ax.set_xlabel("x")
+        ax.set_ylabel("y")
+    fig.colorbar(collection, ax=axes[0].tolist(), shrink=0.8, label=r"damage $\alpha$")
+    fig.suptitle(f"damage on sections at t = {res.t[res.n - 1]:.4g}{progress_note(res)}", fontsize=10)
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path

@@ -1,0 +1,343 @@
+"""The finite-element scene (``kind = "fem"``): a bulk solid, its geometry and mesh, its loads.
+
+Units are the scene's own, consistent set: with lengths in mm, E in MPa (N/mm^2) and Gc in
+N/mm, forces come out in N and energies in N mm; with inches, psi and lbf/in, in lbf and
+lbf in. A 2D run is a slab of the given ``thickness``: its forces and energies are those of
+the whole slab, not per unit thickness. ::
+
+    [model]
+    kind = "fem"
+    dim = 2                 # 2 (triangles) or 3 (tetrahedra)
+    E = 25850.0             # Young's modulus
+    nu = 0.18
+    Gc = 0.095              # toughness (energy per unit crack area)
+    eps = 3.125             # regularization length
+    k_res = 1e-6            # residual stiffness of g = (1 - alpha)^2 + k_res
+    at = 1                  # AT1 (default) or AT2
+    plane = "stress"        # 2D only: "stress" or "strain"
+    thickness = 100.0       # 2D only
+    undamaged = ["gray"]    # regions (cell groups) where alpha is held at 0
+
+    [geometry]
+    kind = "lpanel"         # "lpanel", "three_point_bending" or "file" (with file = "x.msh")
+
+    [mesh]
+    h = 0.625               # size where the crack may run
+    h_coarse = 12.5         # size elsewhere
+
+    [load]
+    t_max = 0.4             # or t = [0.0, 0.1, ...], an explicit list of loads
+    steps = 80
+    fixed = ["bottom"]      # u = 0 on these groups (every component)
+    [load.displacement.load]
+    y = 1.0                 # u_y = t * 1.0 on group "load"; x stays free
+    [load.traction.top]     # traction t * (x, y) on a boundary (force per area)
+    y = -1.0
+    [load.force.load_point] # total force t * (x, y), shared by the group's nodes
+    y = -1.0
+
+The reference is ``docs/scenes.md``; every check raises :class:`thinfilm.scene.SceneError`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from thinfilm.scene import SceneError, SolverSettings, Table, read_snapshots, read_solver, require_tables, show
+
+__all__ = ["FemModelParameters", "Geometry", "MeshSizes", "Loading", "FemScene", "parse", "GEOMETRIES"]
+
+#: Geometry kinds and their own keys (all optional, with the defaults of :mod:`fem3d.geometry`).
+GEOMETRIES = {
+    "lpanel": ("refine", "window", "load", "near_load", "depth"),
+    "three_point_bending": ("configuration", "refine", "notch_width", "gray"),
+    "file": ("file",),
+}
+COMPONENTS = ("x", "y", "z")
+
+
+@dataclass(frozen=True)
+class FemModelParameters:
+    """Material and regularization, in the scene's units.
+
+    Attributes
+    ----------
+    dim : {2, 3}
+    E, nu : float
+        Young's modulus and Poisson ratio.
+    Gc : float
+        Toughness: energy per unit crack area.
+    eps : float
+        Regularization length.
+    k_res : float
+        Residual stiffness.
+    at : {1, 2}
+    plane : {"stress", "strain"}
+        2D only (3D: "none").
+    thickness : float
+        2D slab thickness (1 in 3D).
+    undamaged : tuple of str
+        Regions where the damage is held at 0.
+    """
+
+    dim: int
+    E: float
+    nu: float
+    Gc: float
+    eps: float
+    k_res: float
+    at: int
+    plane: str
+    thickness: float
+    undamaged: tuple
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """``[geometry]``: the kind and its parameters (``options``, as keyword arguments of the
+    geometry's function in :mod:`fem3d.geometry`), or the ``.msh`` file of ``kind = "file"``."""
+
+    kind: str
+    options: tuple = ()
+    file: str | None = None
+
+
+@dataclass(frozen=True)
+class MeshSizes:
+    """``[mesh]``: element size ``h`` where the crack may run, ``h_coarse`` elsewhere."""
+
+    h: float
+    h_coarse: float
+
+
+@dataclass(frozen=True)
+class Loading:
+    """``[load]``: the loads, all proportional to t.
+
+    Attributes
+    ----------
+    t_max : float
+    steps : int
+    values : tuple of float or None
+        An explicit list of loads (``t``), from 0 to ``t_max``; None: ``steps`` equal steps.
+    fixed : tuple of str
+        Groups with u = 0.
+    displacement : tuple of (group, component index, value)
+        u_component = t * value on the group's nodes.
+    traction : tuple of (group, vector)
+        Traction t * vector (force per area; per length times thickness in 2D) on a boundary.
+    force : tuple of (group, vector)
+        Total force t * vector, shared equally by the group's nodes.
+    """
+
+    t_max: float
+    steps: int
+    values: tuple | None = None
+    fixed: tuple = ()
+    displacement: tuple = ()
+    traction: tuple = ()
+    force: tuple = ()
+    proportional = True
+
+    @property
+    def loaded(self):
+        """The displacement groups with a non-zero prescribed value, in order (the first is
+        the one whose reaction is the run's ``force``)."""
+        out = []
+        for group, _, value in self.displacement:
+            if value != 0.0 and group not in out:
+                out.append(group)
+        return tuple(out)
+
+
+@dataclass(frozen=True)
+class FemScene:
+    """A validated ``kind = "fem"`` scene."""
+
+    model: FemModelParameters
+    geometry: Geometry
+    mesh: MeshSizes
+    load: Loading
+    solver: SolverSettings
+    text: str
+    source: str
+    kind: str = "fem"
+    snapshots: tuple | None = None
+    #: ``[output] reference``: a measured force-displacement curve drawn with the run's (CSV
+    #: with two columns, displacement and force, in the scene's units).
+    reference: str | None = None
+    overrides: str | None = None
+
+
+def _numbers(table, key, count=None, *, required=False):
+    """A list of finite numbers (``count`` of them if given), or None if absent and optional."""
+    if not table.has(key):
+        if required:
+            table._required(key)
+        return None
+    value = table.data[key]
+    ok = (isinstance(value, list) and (count is None or len(value) == count)
+          and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
+    if not ok:
+        table._fail(key, value, f"must be a list of {count or 'some'} finite numbers")
+    return tuple(float(v) for v in value)
+
+
+def _names(table, key):
+    """A list of group names (strings)."""
+    if not table.has(key):
+        return ()
+    value = table.data[key]
+    if not (isinstance(value, list) and all(isinstance(v, str) and v for v in value)):
+        table._fail(key, value, "must be a list of group names (strings)")
+    return tuple(value)
+
+
+def _path(source, table, key):
+    """A file named relative to the scene file."""
+    raw = table.data.get(key)
+    if not isinstance(raw, str) or not raw:
+        table._fail(key, raw if raw is not None else "missing", "must be the path of a file")
+    path = Path(raw)
+    if not path.is_absolute() and source != "<string>":
+        path = Path(source).parent / path
+    if not path.is_file():
+        table._fail(key, raw, "must be the path of a file; there is no such file")
+    return str(path)
+
+
+def _model(source, data):
+    model = Table(source, "model", data["model"], ("kind", "dim", "E", "nu", "Gc", "eps", "k_res", "at", "plane",
+                                                   "thickness", "undamaged"))
+    dim = model.integer("dim", minimum=2)
+    if dim not in (2, 3):
+        model._fail("dim", dim, "must be 2 or 3")
+    nu = model.number("nu")
+    if not -1.0 < nu < 0.5:
+        model._fail("nu", nu, "must be in (-1, 0.5)")
+    at = model.integer("at", minimum=1, default=1)
+    if at not in (1, 2):
+        model._fail("at", at, "must be 1 (AT1) or 2 (AT2)")
+    if dim == 3:
+        for key in ("plane", "thickness"):
+            if model.has(key):
+                model._fail(key, model.data[key], "is for 2D runs only (model.dim = 2)")
+        plane, thickness = "none", 1.0
+    else:
+        plane = model.choice("plane", ("stress", "strain"), default="stress")
+        thickness = model.number("thickness", minimum=0, default=1.0)
+    return FemModelParameters(dim=dim, E=model.number("E", minimum=0), nu=nu, Gc=model.number("Gc", minimum=0),
+                              eps=model.number("eps", minimum=0), k_res=model.number("k_res", minimum=0, default=1e-6),
+                              at=at, plane=plane, thickness=thickness, undamaged=_names(model, "undamaged"))
+
+
+def _geometry(source, data, dim):
+    geometry = Table(source, "geometry", data["geometry"],
+                     ("kind",) + tuple(sorted({k for keys in GEOMETRIES.values() for k in keys})))
+    kind = geometry.choice("kind", tuple(GEOMETRIES))
+    for key in geometry.data:
+        if key != "kind" and key not in GEOMETRIES[kind]:
+            geometry._fail(key, geometry.data[key], f'is not a key of geometry.kind = "{kind}" (its keys:'
+                           f' {", ".join(GEOMETRIES[kind])})')
+    if kind == "file":
+        return Geometry(kind, file=_path(source, geometry, "file"))
+    if kind == "three_point_bending" and dim != 2:
+        geometry._fail("kind", kind, "is a 2D geometry (model.dim = 2)")
+    options = {}
+    for key in ("refine", "window"):
+        if geometry.has(key):
+            options[key] = _numbers(geometry, key, 4)
+    if geometry.has("load"):
+        options["load"] = _numbers(geometry, "load", 2)
+    for key in ("near_load", "depth", "notch_width", "gray"):
+        if geometry.has(key):
+            options["thickness" if key == "depth" else key] = geometry.number(key, minimum=0)
+    if kind == "lpanel":
+        options["dim"] = dim
+        if dim == 2 and "thickness" in options:
+            geometry._fail("depth", options["thickness"], "is the 3D panel's extrusion (model.dim = 3); a 2D"
+                           " panel's thickness is model.thickness")
+    if geometry.has("configuration"):
+        options["configuration"] = geometry.choice("configuration", ("I", "II"))
+    return Geometry(kind, tuple(sorted(options.items())))
+
+
+def _vector(table, key, dim):
+    """``{x = .., y = ..}``: a vector of ``dim`` components (missing ones 0)."""
+    value = table.data[key]
+    sub = Table(table.source, f"{table.name}.{key}", value, COMPONENTS[:dim])
+    return tuple(sub.number(c, default=0.0) if sub.has(c) else 0.0 for c in COMPONENTS[:dim])
+
+
+def _loading(source, data, dim):
+    load = Table(source, "load", data["load"], ("t_max", "steps", "t", "fixed", "displacement", "traction", "force"))
+    values = None
+    if load.has("t"):
+        values = _numbers(load, "t")
+        ok = len(values) >= 2 and values[0] == 0.0 and all(b > a for a, b in zip(values, values[1:]))
+        if not ok:
+            load._fail("t", list(values), "must be a list of at least two loads, increasing from 0")
+        for key in ("t_max", "steps"):
+            if load.has(key):
+                load._fail(key, load.data[key], "is not allowed with load.t (an explicit list of loads)")
+        t_max, steps = values[-1], len(values) - 1
+    else:
+        t_max, steps = load.number("t_max", minimum=0), load.integer("steps", minimum=2)
+    displacement = []
+    if load.has("displacement"):
+        table = Table(source, "load.displacement", load.data["displacement"], tuple(load.data["displacement"]))
+        for group in table.data:
+            sub = Table(source, f"load.displacement.{group}", table.data[group], COMPONENTS[:dim])
+            if not sub.data:
+                table._fail(group, table.data[group], f"must give at least one component ({', '.join(COMPONENTS[:dim])})")
+            for c, name in enumerate(COMPONENTS[:dim]):
+                if sub.has(name):
+                    displacement.append((group, c, sub.number(name)))
+    vectors = {}
+    for key in ("traction", "force"):
+        items = []
+        if load.has(key):
+            table = Table(source, f"load.{key}", load.data[key], tuple(load.data[key]))
+            items = [(group, _vector(table, group, dim)) for group in table.data]
+        vectors[key] = tuple(items)
+    loading = Loading(t_max=t_max, steps=steps, values=values, fixed=_names(load, "fixed"),
+                      displacement=tuple(displacement), **vectors)
+    if not (loading.fixed or loading.displacement):
+        raise SceneError(source, "load.fixed", "give load.fixed or load.displacement: without any prescribed"
+                         " displacement the solid is free to move")
+    if not (loading.loaded or loading.traction or loading.force):
+        raise SceneError(source, "load", "nothing loads the solid: give a non-zero load.displacement, a"
+                         " load.traction or a load.force")
+    return loading
+
+
+def parse(source, data, text):
+    """Validate a ``kind = "fem"`` scene (module docstring); returns :class:`FemScene`."""
+    require_tables(source, data, ("model", "geometry", "mesh", "load"), ("solver", "output"))
+    model = _model(source, data)
+    geometry = _geometry(source, data, model.dim)
+    sizes = Table(source, "mesh", data["mesh"], ("h", "h_coarse"))
+    h = sizes.number("h", minimum=0)
+    mesh = MeshSizes(h=h, h_coarse=sizes.number("h_coarse", minimum=0, default=h))
+    if mesh.h_coarse < mesh.h:
+        sizes._fail("h_coarse", mesh.h_coarse, f"must be >= mesh.h = {h:g}")
+    loading = _loading(source, data, model.dim)
+    solver, _ = read_solver(source, data.get("solver", {}), proportional=True)
+    output = data.get("output", {})
+    reference = None
+    if isinstance(output, dict) and "reference" in output:
+        table = Table(source, "output", output, ("snapshots", "reference"))
+        reference = _path(source, table, "reference")
+        output = {k: v for k, v in output.items() if k != "reference"}
+    snapshots = read_snapshots(source, output, loading.t_max)
+    return FemScene(model=model, geometry=geometry, mesh=mesh, load=loading, solver=solver, text=text,
+                    source=str(source), snapshots=snapshots, reference=reference)
+
+
+def describe_group_error(source, key, name, mesh):
+    """The :class:`SceneError` for a group the mesh does not have."""
+    return SceneError(source, key, f"= {show(name)}: no such group in the mesh (its groups: cells"
+                      f" {', '.join(sorted(mesh.cell_groups)) or '-'}; boundaries"
+                      f" {', '.join(sorted(mesh.facet_groups)) or '-'}; points {', '.join(sorted(mesh.node_groups)) or '-'})")

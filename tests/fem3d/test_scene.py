@@ -1,0 +1,79 @@
+"""``kind = "fem"`` scenes: what they read, and the one-line refusals of bad input."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.helpers import CASES, load_case
+from thinfilm.scene import SceneError, parse_scene
+
+SCENE = """\
+[model]
+kind = "fem"
+dim = 2
+E = 1000.0
+nu = 0.3
+Gc = 0.01
+eps = 0.5
+thickness = 2.0
+undamaged = ["gray"]
+[geometry]
+kind = "lpanel"
+[mesh]
+h = 5.0
+h_coarse = 25.0
+[load]
+t_max = 0.1
+steps = 4
+fixed = ["bottom"]
+[load.displacement.load]
+y = 1.0
+"""
+
+
+def test_a_scene_reads_into_its_parts():
+    scene = parse_scene(SCENE)
+    m = scene.model
+    assert (m.dim, m.E, m.nu, m.Gc, m.eps, m.k_res, m.at, m.plane, m.thickness) == (
+        2, 1000.0, 0.3, 0.01, 0.5, 1e-6, 1, "stress", 2.0)
+    assert m.undamaged == ("gray",) and scene.geometry.kind == "lpanel"
+    assert scene.load.fixed == ("bottom",) and scene.load.displacement == (("load", 1, 1.0),)
+    assert scene.load.loaded == ("load",) and scene.load.proportional
+    assert (scene.mesh.h, scene.mesh.h_coarse) == (5.0, 25.0)
+    assert dict(scene.geometry.options) == {"dim": 2}
+
+
+def test_explicit_loads():
+    scene = parse_scene(SCENE.replace("t_max = 0.1\nsteps = 4", "t = [0.0, 0.05, 0.08, 0.1]"))
+    assert scene.load.values == (0.0, 0.05, 0.08, 0.1) and scene.load.t_max == 0.1 and scene.load.steps == 3
+
+
+@pytest.mark.parametrize("change, message", [
+    (("dim = 2", "dim = 4"), "model.dim = 4: must be 2 or 3"),
+    (("nu = 0.3", "nu = 0.5"), "model.nu = 0.5: must be in (-1, 0.5)"),
+    (("eps = 0.5", "eps = -1.0"), "model.eps = -1.0: must be a positive number"),
+    (("thickness = 2.0", 'thickness = 2.0\nplane = "membrane"'), 'model.plane = "membrane": must be one of "stress"'),
+    (("dim = 2", "dim = 3"), "model.thickness = 2.0: is for 2D runs only"),
+    (('kind = "lpanel"', 'kind = "lpanel"\nconfiguration = "I"'), 'geometry.configuration = "I": is not a key of'),
+    (('kind = "lpanel"', 'kind = "beam"'), 'geometry.kind = "beam": must be one of "lpanel"'),
+    (('kind = "lpanel"', 'kind = "lpanel"\nrefine = [0, 1]'), "geometry.refine = [0, 1]: must be a list of 4"),
+    (("h_coarse = 25.0", "h_coarse = 1.0"), "mesh.h_coarse = 1.0: must be >= mesh.h = 5"),
+    (("t_max = 0.1\nsteps = 4", "t = [0.1, 0.2]"), "load.t = [0.1, 0.2]: must be a list of at least two loads"),
+    (('fixed = ["bottom"]', "fixed = [1]"), "load.fixed = [1]: must be a list of group names"),
+    (("[load.displacement.load]\ny = 1.0", "[load.displacement.load]\nw = 1.0"), "load.displacement.load.w: unknown key"),
+    (('fixed = ["bottom"]\n[load.displacement.load]\ny = 1.0', ""), "load.fixed: give load.fixed or"),
+    (("y = 1.0", "y = 0.0"), "load: nothing loads the solid"),
+    (("[load]", "[solver]\nbacktrack = \"sometimes\"\n[load]"), 'solver.backtrack = "sometimes": must be one of'),
+])
+def test_bad_input_names_the_key(change, message):
+    with pytest.raises(SceneError) as err:
+        parse_scene(SCENE.replace(*change), source="x.toml")
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("name", ["lpanel", "lpanel_fine", "lpanel_3d", "three_point_bending_I", "three_point_bending_II"])
+def test_the_case_files_are_valid(name):
+    scene = load_case(name)
+    assert scene.kind == "fem"
+    if scene.reference:
+        assert (CASES / "winkler_lpanel_series_a.csv").samefile(scene.reference)
