@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-__all__ = ["BROKEN", "crack_tip"]
+__all__ = ["BROKEN", "crack_tip", "holes_reached"]
 
 #: Damage at which a node counts as broken (the dissertation draws cracks as 0.9 <= alpha <= 1).
 BROKEN = 0.9
@@ -50,3 +50,31 @@ def crack_tip(points, alpha, origin, threshold=BROKEN):
     k = broken[int(np.argmax(distance))]
     d = xy[k] - origin
     return xy[k], float(np.linalg.norm(d)), math.degrees(math.atan2(d[1], d[0]))
+
+
+def holes_reached(points, alpha, holes, radius, margin, threshold=BROKEN):
+    """The holes a crack has reached: those with a broken node within ``margin`` of their rim.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n, 2)
+    alpha : ndarray, shape (n,)
+    holes : dict of str -> (x, y)
+        The holes' centres.
+    radius : float
+        Their radius.
+    margin : float
+        How close to the rim a broken node must be (a few element sizes).
+
+    Returns
+    -------
+    list of str
+        The names of the holes reached, from the lowest to the highest (a crack rising from a
+        bottom notch reaches them in this order).
+    """
+    broken = np.asarray(points)[np.asarray(alpha) >= threshold]
+    out = []
+    for name, centre in sorted(holes.items(), key=lambda item: item[1][1]):
+        if broken.size and np.min(np.linalg.norm(broken[:, :2] - np.asarray(centre), axis=1)) <= radius + margin:
+            out.append(name)
+    return out

@@ -265,7 +265,9 @@ def three_point_bending(configuration="I", h=0.01, h_coarse=0.25, refine=(-7.0, 
         With the groups
 
         * cells: ``"gray"`` (centroid within ``gray`` of a support or of the load point) and
-          ``"beam"`` (the others): a partition;
+          ``"beam"`` (the others): a partition; and ``"refined"`` (centroid in ``refine``)
+          and ``"coarse"`` (the others), another (a scene may hold the damage at 0 in the
+          coarse part, where the mesh cannot resolve a crack band);
         * facets: ``"top"`` (y = 8), ``"bottom"`` (y = 0, the notch's mouth excepted),
           ``"notch"`` (its two sides and its flat end), ``"hole_T"``, ``"hole_M"``,
           ``"hole_B"`` (the holes' boundaries);
@@ -316,7 +318,9 @@ def three_point_bending(configuration="I", h=0.01, h_coarse=0.25, refine=(-7.0, 
     near = np.zeros(mesh.n_cells, dtype=bool)
     for x, y in points.values():
         near |= np.hypot(centroids[:, 0] - x, centroids[:, 1] - y) <= gray
-    cell_groups = {"gray": np.flatnonzero(near), "beam": np.flatnonzero(~near)}
+    refined = _in_box(centroids, refine)
+    cell_groups = {"gray": np.flatnonzero(near), "beam": np.flatnonzero(~near),
+                   "refined": np.flatnonzero(refined), "coarse": np.flatnonzero(~refined)}
     return Mesh(mesh.points, mesh.cells, cell_groups, mesh.facet_groups, mesh.node_groups)
 
 
