@@ -8,25 +8,39 @@ appearing at once from the re-entrant corner at a load-point displacement of abo
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
-from fem3d.cracks import crack_tip
+from fem3d.cracks import crack_tip, holes_reached
+from fem3d.geometry import HOLE_RADIUS, HOLES
 from tests.helpers import load_case
 from thinfilm.results.reader import Results
 from thinfilm.run import run
 
-#: The L-panel on a mesh four times coarser than the case file's, to t = 0.3 mm.
-COARSE_LPANEL = {"model.eps": 12.5, "mesh.h": 5.0, "mesh.h_coarse": 25.0, "load.t": None,
-                 "load.t_max": 0.3, "load.steps": 30, "output.snapshots": [0.3]}
+#: The L-panel on a mesh four times coarser than the case file's, to t = 0.3 mm: 0.05 mm
+#: steps to 0.2 mm, then 0.005 mm steps where the crack appears.
+COARSE_LPANEL = {"model.eps": 12.5, "mesh.h": 5.0, "mesh.h_coarse": 25.0,
+                 "load.t": [0.0, 0.05, 0.1, 0.15, 0.2] + [round(0.2 + 0.005 * k, 4) for k in range(1, 21)],
+                 "output.snapshots": [0.3]}
+#: Table 3.2's critical displacements at eps = 3.125 mm (mm): no backtracking, Alg. 3.1, 3.2.
+TABLE_3_2_UC = {"none": 0.2496, "standard": 0.2352, "deep": 0.2304}
+
+
+def _lpanel(tmp_path_factory, backtrack):
+    out = tmp_path_factory.mktemp(f"lpanel_{backtrack}")
+    overrides = dict(COARSE_LPANEL, **{"solver.backtrack": backtrack})
+    if backtrack == "deep":
+        overrides["solver.backtrack_interval"] = 1   # the dissertation's bi = 1, scope all
+    scene = load_case("lpanel", overrides)
+    summary = json.loads(run(scene, out)["summary"].read_text())
+    return scene, Results(out / "results.h5"), summary
 
 
 @pytest.fixture(scope="module")
 def lpanel(tmp_path_factory):
-    out = tmp_path_factory.mktemp("lpanel")
-    scene = load_case("lpanel", COARSE_LPANEL)
-    summary = run(scene, out)["summary"]
-    res = Results(out / "results.h5")
+    scene, res, summary = _lpanel(tmp_path_factory, "none")
     yield scene, res, summary
     res.close()
 
@@ -38,15 +52,12 @@ def test_lpanel_elastic_stiffness(lpanel):
     _, res, _ = lpanel
     sound = res.steps["surface"] == 0.0
     slope = res.steps["force"][sound][1:] / res.steps["displacement"][sound][1:]
-    assert len(slope) >= 3 and np.ptp(slope) <= 1e-9 * slope.mean()   # linear while sound
+    assert len(slope) >= 2 and np.ptp(slope) <= 1e-9 * slope.mean()   # linear while sound
     assert 57e3 <= slope.mean() <= 66e3   # N/mm
 
 
 def test_lpanel_brutal_nucleation_from_the_corner(lpanel):
-    scene, res, _ = lpanel
-    import json
-
-    summary = json.loads(res.path.with_name("summary.json").read_text())
+    scene, res, summary = lpanel
     events = summary["events"]
     assert len(events) == 1
     event = events[0]
@@ -68,3 +79,77 @@ def test_lpanel_brutal_nucleation_from_the_corner(lpanel):
     assert np.min(np.linalg.norm(points[alpha >= 0.9] - corner, axis=1)) <= 2 * scene.mesh.h
     tip, length, angle = crack_tip(points, alpha, corner)
     assert length > 50.0 and 0.0 <= 180.0 - angle <= 43.0
+
+
+
+def test_lpanel_backtracking_lowers_the_critical_load(lpanel, tmp_path_factory):
+    """Table 3.2's ordering u_c(deep) <= u_c(Alg. 3.1) < u_c(none), each within 12% of its row.
+
+    Measured on this mesh: 0.26, 0.235, 0.235 mm against the table's 0.2496, 0.2352, 0.2304.
+    """
+    critical = {"none": lpanel[2]["events"][0]["t"]}
+    for backtrack in ("standard", "deep"):
+        _, res, summary = _lpanel(tmp_path_factory, backtrack)
+        res.close()
+        assert summary["events"], backtrack
+        critical[backtrack] = summary["events"][0]["t"]
+    assert critical["deep"] <= critical["standard"] < critical["none"]
+    for backtrack, t in critical.items():
+        assert abs(t - TABLE_3_2_UC[backtrack]) <= 0.12 * TABLE_3_2_UC[backtrack], (backtrack, t)
+
+
+# The three-point bending beams (dissertation section 3.5.2). Without backtracking the crack
+# appears at once from the notch and runs to the middle hole M, then T: at eps = 0.05 in (the
+# case files) for both configurations. On the coarse mesh of the default test (eps = 0.2 in,
+# h = 0.1 in) configuration II keeps that path; configuration I's crack bends into the
+# bottom hole B first there (docs/cases.md#three-point-bending-with-holes), so its coarse test
+# would check a resolution artefact and only the slow test runs it.
+NOTCH_TIP = {"I": (-6.0, 1.0), "II": (-6.0, 2.5)}
+
+
+def _beam(tmp_path, configuration, overrides):
+    scene = load_case(f"three_point_bending_{configuration}", overrides)
+    summary = json.loads(run(scene, tmp_path)["summary"].read_text())
+    return scene, Results(tmp_path / "results.h5"), summary
+
+
+def _check_path_to_m(scene, res, summary, configuration):
+    """One brutal event; the crack leaves the notch tip and its first hole is M, then T."""
+    events = summary["events"]
+    assert len(events) >= 1
+    first = events[0]
+    # A long crack at once (inches; notch tip to M is about 3 in).
+    assert first["crack_length"] - first["crack_length_before"] > 2.0
+    k = int(np.flatnonzero(res.t == first["t"])[0])
+    points = res.discretization.points
+    alpha = res.field("alpha", k)
+    broken = points[alpha >= 0.9]
+    h = scene.mesh.h
+    assert np.min(np.linalg.norm(broken - np.asarray(NOTCH_TIP[configuration]), axis=1)) <= 3 * h
+    assert broken[:, 0].max() < -2.0   # on the holes' side of mid-span
+    reached = holes_reached(points, alpha, HOLES, HOLE_RADIUS, 2 * h)
+    assert "hole_M" in reached and "hole_B" not in reached
+    # Before the jump no hole was reached.
+    assert holes_reached(points, res.field("alpha", k - 1), HOLES, HOLE_RADIUS, 2 * h) == []
+
+
+def test_three_point_bending_II_coarse_crack_runs_from_the_notch_to_the_middle_hole(tmp_path):
+    overrides = {"model.eps": 0.2, "mesh.h": 0.1, "load.t_max": 0.04, "load.steps": 10,
+                 "output.snapshots": [0.04]}
+    scene, res, summary = _beam(tmp_path, "II", overrides)
+    try:
+        _check_path_to_m(scene, res, summary, "II")
+    finally:
+        res.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("configuration, t_max", [("I", 0.06), ("II", 0.04)])
+def test_three_point_bending_case_resolution_first_hole_is_m(tmp_path, configuration, t_max):
+    # The case files' mesh (eps = 0.05 in, h = 0.025 in), to just after the jump: 3-4 min each.
+    overrides = {"load.t_max": t_max, "load.steps": round(t_max / 0.001), "output.snapshots": [t_max]}
+    scene, res, summary = _beam(tmp_path, configuration, overrides)
+    try:
+        _check_path_to_m(scene, res, summary, configuration)
+    finally:
+        res.close()

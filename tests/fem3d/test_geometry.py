@@ -219,7 +219,7 @@ def test_beam_area_and_groups(configuration):
     m = three_point_bending(configuration, h=0.1, h_coarse=0.25, notch_width=width)
     check_common(m)
     assert m.dim == 2
-    assert m.group_names() == {"cells": ["beam", "gray"],
+    assert m.group_names() == {"cells": ["beam", "coarse", "gray", "refined"],
                                "facets": ["bottom", "hole_B", "hole_M", "hole_T", "notch", "top"],
                                "nodes": ["load_point", "support_left", "support_right"]}
     a = NOTCH_DEPTH[configuration]
@@ -249,6 +249,12 @@ def test_beam_area_and_groups(configuration):
     gray, beam = m.cell_groups["gray"], m.cell_groups["beam"]
     assert len(gray) > 0 and len(gray) + len(beam) == m.n_cells
     assert np.all(distance[gray] <= 0.5) and np.all(distance[beam] > 0.5)
+    # "refined" and "coarse": the cells whose centroid is inside the refined box, and the rest
+    refined, coarse = m.cell_groups["refined"], m.cell_groups["coarse"]
+    assert len(refined) > 0 and len(coarse) > 0
+    np.testing.assert_array_equal(np.sort(np.concatenate([refined, coarse])), np.arange(m.n_cells))
+    inside = (c[:, 0] >= -7.0) & (c[:, 0] <= -2.5) & (c[:, 1] >= 0.0) & (c[:, 1] <= 8.0)
+    np.testing.assert_array_equal(np.flatnonzero(inside), refined)
 
 
 def test_beam_mesh_size_and_determinism():

@@ -75,7 +75,7 @@ def _cracked_state():
     from fem3d.kind import build_mesh, build_model
 
     scene = load_case("lpanel", {"model.eps": 25.0, "mesh.h": 12.5, "mesh.h_coarse": 50.0,
-                                 "load.t_max": 0.4, "load.steps": 8, "output": None})
+                                 "load.t": None, "load.t_max": 0.4, "load.steps": 8, "output": None})
     model = build_model(scene, build_mesh(scene))
     records, states = Engine.from_options(model, scene.solver).run(np.linspace(0.0, 0.4, 9))
     return model, records, states
