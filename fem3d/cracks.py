@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-__all__ = ["BROKEN", "crack_tip", "holes_reached"]
+__all__ = ["BROKEN", "crack_tip", "crack_through_depth", "holes_reached"]
 
 #: Damage at which a node counts as broken (the dissertation draws cracks as 0.9 <= alpha <= 1).
 BROKEN = 0.9
@@ -50,6 +50,39 @@ def crack_tip(points, alpha, origin, threshold=BROKEN):
     k = broken[int(np.argmax(distance))]
     d = xy[k] - origin
     return xy[k], float(np.linalg.norm(d)), math.degrees(math.atan2(d[1], d[0]))
+
+
+def crack_through_depth(points, alpha, origin, depths, width, threshold=BROKEN):
+    """A 3D crack read slice by slice: :func:`crack_tip` in slabs across the depth (z).
+
+    Parameters
+    ----------
+    points : ndarray, shape (n, 3)
+    alpha : ndarray, shape (n,)
+    origin : sequence of float, length 2
+        Where the crack starts in (x, y), along the z axis (the L-panel's re-entrant edge).
+    depths : sequence of float
+        The slabs' mid-planes z.
+    width : float
+        The slabs' width (a mesh size or two: each must hold nodes).
+
+    Returns
+    -------
+    list of tuple (z, start, length, angle)
+        For each slab: its z; ``start``, the distance in (x, y) from ``origin`` to the nearest
+        broken node (``inf`` if none); ``length`` and ``angle`` of :func:`crack_tip` (0 and
+        NaN if none).
+    """
+    points, alpha = np.asarray(points), np.asarray(alpha)
+    origin = np.asarray(origin, dtype=float)
+    out = []
+    for z in depths:
+        slab = np.abs(points[:, 2] - z) <= width / 2
+        broken = points[slab & (alpha >= threshold), :2]
+        start = float(np.min(np.linalg.norm(broken - origin, axis=1))) if broken.size else math.inf
+        _, length, angle = crack_tip(points[slab], alpha[slab], origin, threshold)
+        out.append((float(z), start, length, angle))
+    return out
 
 
 def holes_reached(points, alpha, holes, radius, margin, threshold=BROKEN):

@@ -15,7 +15,8 @@ from fem3d import scene as fem_scene
 from thinfilm.run import EvolutionKind, Setup
 from thinfilm.scene import SceneError
 
-__all__ = ["KIND", "FemKind", "build_mesh", "build_model", "crack_lengths", "crack_events", "AMG_MIN_DOFS_3D"]
+__all__ = ["KIND", "FemKind", "build_mesh", "build_model", "crack_lengths", "crack_events", "AMG_MIN_DOFS_3D",
+           "AMG_OPTIONS"]
 
 #: ``[solver] linear = "auto"`` uses AMG-preconditioned CG for 3D problems from this many free
 #: dofs, a sparse direct solver below and in 2D (``docs/speed.md#finite-elements``: in 2D the
@@ -23,6 +24,14 @@ __all__ = ["KIND", "FemKind", "build_mesh", "build_model", "crack_lengths", "cra
 #: 1.1 s (direct) against 0.41 s (AMG) at 40k dofs, 3.3 s against 0.66 s at 67k, and about the
 #: same at 9k).
 AMG_MIN_DOFS_3D = 20_000
+
+#: Smoothed-aggregation settings for elasticity (passed over the plate-tuned defaults of
+#: :data:`thinfilm.solvers.linear.AMG_DEFAULTS`): pyamg's own, symmetric strength with
+#: theta = 0 and a Jacobi-smoothed prolongator. On the 3D L-panel at 211k dofs (one thread):
+#: setup 5.1 s and 1.2 GB, a damaged re-solve to 1e-6 in 1.9 s (23 CG iterations); the
+#: plate's theta = 0.08 with energy-minimizing P: 83 s and 3.9 GB, 9.2 s (18 iterations), its
+#: coarse levels much denser; theta = 0 with energy P: 21 s and 2.2 GB, 1.9 s.
+AMG_OPTIONS = {"strength": ("symmetric", {"theta": 0.0}), "smooth": ("jacobi", {})}
 
 
 def build_mesh(scene):
@@ -69,7 +78,8 @@ def build_model(scene, mesh):
     kind = scene.solver.linear
     if kind == "auto":
         kind = "amg" if (m.dim == 3 and K.shape[0] >= AMG_MIN_DOFS_3D) else "direct"
-    solver = make_solver(kind, K, near_nullspace=elasticity.rigid_modes() if kind == "amg" else None)
+    amg = dict(near_nullspace=elasticity.rigid_modes(), **AMG_OPTIONS) if kind == "amg" else {}
+    solver = make_solver(kind, K, **amg)
     return FemModel(mesh, elasticity, damage, loads, solver)
 
 

@@ -141,6 +141,12 @@ def slice_polygons(points, cells, values, axis, level):
     """
     coordinate = points[:, axis]
     in_plane = [a for a in range(3) if a != axis]
+    # A plane through nodes (a mid-plane of an extruded or symmetric mesh) would cut tetrahedra
+    # through a vertex, which the edge crossings below miss: move it off the nodes by a
+    # millionth of the extent, far below anything a figure shows.
+    extent = float(np.ptp(coordinate)) or 1.0
+    while np.any(np.abs(coordinate - level) <= 1e-9 * extent):
+        level += 1e-6 * extent
     c = coordinate[cells]
     cut = np.flatnonzero((c.min(axis=1) < level) & (c.max(axis=1) > level))
     polygons, means = [], []

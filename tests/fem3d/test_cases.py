@@ -13,7 +13,7 @@ import json
 import numpy as np
 import pytest
 
-from fem3d.cracks import crack_tip, holes_reached
+from fem3d.cracks import crack_through_depth, crack_tip, holes_reached
 from fem3d.geometry import HOLE_RADIUS, HOLES
 from tests.helpers import load_case
 from thinfilm.results.reader import Results
@@ -96,6 +96,34 @@ def test_lpanel_backtracking_lowers_the_critical_load(lpanel, tmp_path_factory):
     assert critical["deep"] <= critical["standard"] < critical["none"]
     for backtrack, t in critical.items():
         assert abs(t - TABLE_3_2_UC[backtrack]) <= 0.12 * TABLE_3_2_UC[backtrack], (backtrack, t)
+
+
+
+def _check_3d_panel(scene, res, k):
+    """At step ``k`` the crack surface runs from the re-entrant edge through the whole depth,
+    rising to the left inside the experiments' 0-43 degrees on average."""
+    points = res.discretization.points
+    h = scene.mesh.h
+    slices = crack_through_depth(points, res.field("alpha", k), (250.0, 250.0), np.linspace(0.0, 100.0, 6), h)
+    for z, start, length, angle in slices:
+        assert start <= 2 * h and length > 50.0, (z, start, length)
+    rise = [180.0 - angle for _, _, _, angle in slices]
+    assert 0.0 <= np.mean(rise) <= 43.0 and np.ptp(rise) <= 20.0, rise
+
+
+def test_lpanel_3d_coarse_crack_from_the_re_entrant_edge(tmp_path):
+    # eps = 30 mm, h = 15 mm (5,400 nodes, direct solver): the crack surface appears between
+    # 0.24 and 0.26 mm over the whole depth (Table 3.2's 2D u_c: 0.23-0.26 mm).
+    overrides = {"model.eps": 30.0, "mesh.h": 15.0, "mesh.h_coarse": 50.0,
+                 "load.t_max": None, "load.steps": None, "load.t": [0.0, 0.1, 0.2, 0.24, 0.26, 0.28],
+                 "output.snapshots": [0.28]}
+    scene = load_case("lpanel_3d", overrides)
+    run(scene, tmp_path)
+    with Results(tmp_path / "results.h5") as res:
+        area = np.asarray(res.steps["surface"]) / scene.model.Gc   # mm^2
+        k = int(np.argmax(np.diff(area))) + 1
+        assert res.t[k] == 0.26 and area[k] - area[k - 1] > 50.0 * 100.0   # > 50 mm over the depth
+        _check_3d_panel(scene, res, len(res.t) - 1)
 
 
 # The three-point bending beams (dissertation section 3.5.2). Without backtracking the crack

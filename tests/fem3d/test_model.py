@@ -146,3 +146,35 @@ def test_a_3d_run_through_the_toolkit(tmp_path):
     root = ET.parse(tmp_path / "results.xdmf").getroot()
     assert root.find(".//Grid/Grid/Topology").get("TopologyType") == "Tetrahedron"
     assert root.find(".//Attribute[@Name='u']").get("AttributeType") == "Vector"
+
+
+@pytest.mark.parametrize("level", [0.5, 0.37])
+def test_slices_cover_the_section(level):
+    """The section of a tetrahedral cube by a plane, through nodes (0.5) or not, is the whole
+    unit square: the polygons' areas sum to 1 and a linear field is exact on them."""
+    from fem3d.plots import slice_polygons
+
+    n = 4
+    g = np.linspace(0.0, 1.0, n + 1)
+    x, y, z = np.meshgrid(g, g, g, indexing="ij")
+    points = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    index = np.arange(points.shape[0]).reshape(n + 1, n + 1, n + 1)
+    cells = []
+    for i in range(n):
+        for j in range(n):
+            for k in range(n):
+                v = [index[i + a, j + b, k + c] for a, b, c in
+                     ((0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1))]
+                # six tetrahedra around the diagonal v0-v6
+                for a, b in ((1, 2), (2, 3), (3, 7), (7, 4), (4, 5), (5, 1)):
+                    cells.append((v[0], v[a], v[b], v[6]))
+    cells = np.array(cells)
+    values = points @ np.array([1.0, 2.0, 3.0])
+    polygons, means = slice_polygons(points, cells, values, 2, level)
+
+    def area(p):
+        return 0.5 * abs(np.dot(p[:, 0], np.roll(p[:, 1], 1)) - np.dot(p[:, 1], np.roll(p[:, 0], 1)))
+
+    assert sum(area(p) for p in polygons) == pytest.approx(1.0, rel=1e-5)
+    centres = np.array([p.mean(axis=0) for p in polygons])
+    np.testing.assert_allclose(means, centres @ np.array([1.0, 2.0]) + 3.0 * level, atol=1e-4)
