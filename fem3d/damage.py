@@ -46,8 +46,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from fem3d import kernels
-from fem3d.elasticity import _index_array, _number, mesh_geometry
+from fem3d.elasticity import _index_array, mesh_geometry
 from fem3d.mesh import Mesh
+from thinfilm.options import real_in_range
 
 __all__ = ["DamageOperator", "c_V"]
 
@@ -93,9 +94,9 @@ class DamageOperator:
                  fixed_nodes=None):
         grads, measure = mesh_geometry(mesh)
         self.mesh = mesh
-        self.Gc = _number("Gc", Gc, 0.0, math.inf, low_open=True)
-        self.eps = _number("eps", eps, 0.0, math.inf, low_open=True)
-        self.thickness = _number("thickness", thickness, 0.0, math.inf, low_open=True)
+        self.Gc = real_in_range("Gc", Gc, 0.0, math.inf, low_open=True)
+        self.eps = real_in_range("eps", eps, 0.0, math.inf, low_open=True)
+        self.thickness = real_in_range("thickness", thickness, 0.0, math.inf, low_open=True)
         if mesh.dim == 3 and self.thickness != 1.0:
             raise ValueError(f"thickness = {thickness!r} must be 1 for a 3D mesh")
         c_V(at)  # validates

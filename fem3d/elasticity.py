@@ -56,6 +56,7 @@ import scipy.sparse as sp
 
 from fem3d import kernels
 from fem3d.mesh import Mesh
+from thinfilm.options import real_in_range
 
 __all__ = ["Elasticity", "lame_parameters"]
 
@@ -78,18 +79,6 @@ def lame_parameters(E: float, nu: float, plane: str | None = None) -> tuple[floa
     if plane == "stress":
         lam = 2.0 * lam * mu / (lam + 2.0 * mu)
     return lam, mu
-
-
-def _number(name, value, low, high, low_open=False, high_open=True):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} = {value!r} must be a real number") from None
-    ok = math.isfinite(v) and (v > low if low_open else v >= low) and (v < high if high_open else v <= high)
-    if not ok:
-        raise ValueError(f"{name} = {value!r} outside the allowed range "
-                         f"{'(' if low_open else '['}{low}, {high}{')' if high_open else ']'}")
-    return v
 
 
 def _index_array(name, value, size):
@@ -173,10 +162,10 @@ class Elasticity:
         self.grads, self.measure = mesh_geometry(mesh)
         self.mesh = mesh
         self.dim = d = mesh.dim
-        self.E = _number("E", E, 0.0, math.inf, low_open=True)
-        self.nu = _number("nu", nu, -1.0, 0.5, low_open=True)
-        self.k_res = _number("k_res", k_res, 0.0, math.inf)
-        self.thickness = _number("thickness", thickness, 0.0, math.inf, low_open=True)
+        self.E = real_in_range("E", E, 0.0, math.inf, low_open=True)
+        self.nu = real_in_range("nu", nu, -1.0, 0.5, low_open=True)
+        self.k_res = real_in_range("k_res", k_res, 0.0, math.inf)
+        self.thickness = real_in_range("thickness", thickness, 0.0, math.inf, low_open=True)
         if d == 2:
             if plane not in ("stress", "strain"):
                 raise ValueError(f'plane = {plane!r} must be "stress" or "strain"')
@@ -198,6 +187,7 @@ class Elasticity:
         self._free_index[self._free] = np.arange(self._free.size)
         self._con_index = np.full(n_dofs, -1, dtype=np.int64)
         self._con_index[con] = np.arange(con.size)
+        self._dof_index = np.arange(n_dofs, dtype=np.int64)   # every dof its own column (reactions)
         for a in (self._constrained, self._free):
             a.flags.writeable = False
 
@@ -324,8 +314,9 @@ class Elasticity:
         u_d = np.ascontiguousarray(np.broadcast_to(np.asarray(u_constrained, dtype=np.float64),
                                                    self._constrained.shape))
         out = np.zeros(self._free.size) if f is None else self._vector("f", f, self.n_dofs)[self._free].copy()
-        kernels.constrained_rhs(self.grads, self.measure, self.mesh.cells, self._boundary_cells, coef,
-                                self.thickness, self.lam, self.mu, self._free_index, self._con_index, u_d, out)
+        kernels.boundary_product(self.grads, self.measure, self.mesh.cells, self._boundary_cells, coef,
+                                 self.thickness, self.lam, self.mu, self._free_index, self._con_index, u_d,
+                                 -1.0, out)
         return out
 
     def reactions(self, alpha, u, f=None, *, cell_factor=None) -> np.ndarray:
@@ -355,8 +346,9 @@ class Elasticity:
         coef = self._coef(alpha, cell_factor)
         u = self._vector("u", u, self.n_dofs)
         out = np.zeros(self._constrained.size)
-        kernels.constrained_reactions(self.grads, self.measure, self.mesh.cells, self._boundary_cells, coef,
-                                      self.thickness, self.lam, self.mu, self._con_index, u, out)
+        kernels.boundary_product(self.grads, self.measure, self.mesh.cells, self._boundary_cells, coef,
+                                 self.thickness, self.lam, self.mu, self._con_index, self._dof_index, u, 1.0,
+                                 out)
         if f is not None:
             out -= self._vector("f", f, self.n_dofs)[self._constrained]
         return out

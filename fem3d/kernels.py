@@ -49,7 +49,7 @@ __all__ = [
     "free_pattern", "free_pattern_reference", "cell_offsets",
     "cell_degradation", "cell_degradation_reference",
     "stiffness_values", "stiffness_reference",
-    "constrained_rhs", "constrained_reactions",
+    "boundary_product",
     "cell_strain", "cell_strain_reference",
     "strain_energy_density", "strain_energy_density_reference",
     "nodal_energy", "nodal_energy_reference",
@@ -432,12 +432,17 @@ def stiffness_reference(grads, measure, cells, coef, thickness, lam, mu):
 
 
 @njit(cache=True)
-def constrained_rhs(grads, measure, cells, cell_list, coef, thickness, lam, mu, free_index, con_index,
-                    u_con, out):
-    """``out -= K_fd u_d``: the free rows' share of the prescribed displacements.
+def boundary_product(grads, measure, cells, cell_list, coef, thickness, lam, mu, row_index, col_index, x,
+                     sign, out):
+    """``out[row_index[i]] += sign (K_e x)_i``, summed over the cells of ``cell_list``: a block
+    of ``K`` times a vector, where only the cells touching a constrained dof contribute.
 
-    Loops over ``cell_list`` only (the cells with a constrained dof; the others have no
-    ``K_fd`` entry). ``u_con`` (n_constrained,) in the order of ``con_index``; ``out`` (n_free,).
+    ``row_index`` and ``col_index`` (n_dofs,) map a dof to its row of ``out`` and its entry of
+    ``x`` (``-1``: skipped). The two uses (:mod:`fem3d.elasticity`): the right-hand side
+    ``out -= K_fd u_d`` (rows ``free_index``, columns ``con_index``, ``x = u_d``, ``sign =
+    -1``) and the reactions ``out += (K u)_d`` (rows ``con_index``, every column, ``x = u``,
+    ``sign = +1``). ``cell_list``: the cells with a constrained dof (the others have no
+    ``K_fd`` or ``K_dd`` entry).
     """
     nv, d = grads.shape[1], grads.shape[2]
     gg = np.empty((nv, nv), dtype=np.float64)
@@ -448,7 +453,7 @@ def constrained_rhs(grads, measure, cells, cell_list, coef, thickness, lam, mu, 
         for k in range(nv):
             i = cells[e, k]
             for a in range(d):
-                r = free_index[i * d + a]
+                r = row_index[i * d + a]
                 if r < 0:
                     continue
                 gia = grads[e, k, a]
@@ -457,43 +462,27 @@ def constrained_rhs(grads, measure, cells, cell_list, coef, thickness, lam, mu, 
                     j = cells[e, m]
                     gja = grads[e, m, a]
                     for b in range(d):
-                        c = con_index[j * d + b]
+                        c = col_index[j * d + b]
                         if c < 0:
                             continue
                         v = lam * (gia * grads[e, m, b]) + mu * (grads[e, k, b] * gja)
                         if a == b:
                             v += mu * gg[k, m]
-                        s += v * u_con[c]
-                out[r] -= w * s
+                        s += v * x[c]
+                out[r] += sign * (w * s)
 
 
 @njit(cache=True)
-def constrained_reactions(grads, measure, cells, cell_list, coef, thickness, lam, mu, con_index, u, out):
-    """``out += (K u)_d``: the constrained rows of ``K u`` (``u`` all dofs, ``out``
-    (n_constrained,)), from the cells of ``cell_list`` (those with a constrained dof)."""
+def _displacement_gradient(grads, cells, u, e, G):
+    """``G[a, b] = du_a/dx_b`` on cell ``e`` (P1: constant), written into ``G`` (d, d)."""
     nv, d = grads.shape[1], grads.shape[2]
-    gg = np.empty((nv, nv), dtype=np.float64)
-    for q in range(cell_list.size):
-        e = cell_list[q]
-        w = thickness * coef[e] * measure[e]
-        _gram(grads, e, gg)
-        for k in range(nv):
-            i = cells[e, k]
-            for a in range(d):
-                r = con_index[i * d + a]
-                if r < 0:
-                    continue
-                gia = grads[e, k, a]
-                s = 0.0
-                for m in range(nv):
-                    j = cells[e, m]
-                    gja = grads[e, m, a]
-                    for b in range(d):
-                        v = lam * (gia * grads[e, m, b]) + mu * (grads[e, k, b] * gja)
-                        if a == b:
-                            v += mu * gg[k, m]
-                        s += v * u[j * d + b]
-                out[r] += w * s
+    G[:, :] = 0.0
+    for k in range(nv):
+        i = cells[e, k]
+        for a in range(d):
+            ua = u[i * d + a]
+            for b in range(d):
+                G[a, b] += ua * grads[e, k, b]
 
 
 @njit(cache=True)
@@ -504,13 +493,7 @@ def cell_strain(grads, cells, u):
     out = np.zeros((n_cells, 3 if d == 2 else 6), dtype=np.float64)
     G = np.empty((d, d), dtype=np.float64)  # displacement gradient du_a/dx_b
     for e in range(n_cells):
-        G[:, :] = 0.0
-        for k in range(nv):
-            i = cells[e, k]
-            for a in range(d):
-                ua = u[i * d + a]
-                for b in range(d):
-                    G[a, b] += ua * grads[e, k, b]
+        _displacement_gradient(grads, cells, u, e, G)
         if d == 2:
             out[e, 0], out[e, 1], out[e, 2] = G[0, 0], G[1, 1], 0.5 * (G[0, 1] + G[1, 0])
         else:
@@ -539,13 +522,7 @@ def strain_energy_density(grads, cells, u, lam, mu):
     out = np.empty(n_cells, dtype=np.float64)
     G = np.empty((d, d), dtype=np.float64)
     for e in range(n_cells):
-        G[:, :] = 0.0
-        for k in range(nv):
-            i = cells[e, k]
-            for a in range(d):
-                ua = u[i * d + a]
-                for b in range(d):
-                    G[a, b] += ua * grads[e, k, b]
+        _displacement_gradient(grads, cells, u, e, G)
         tr = 0.0
         ee = 0.0
         for a in range(d):

@@ -43,7 +43,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 from thinfilm.scene import SceneError, SolverSettings, Table, read_snapshots, read_solver, require_tables, show
 
@@ -195,16 +194,11 @@ def _names(table, key):
     return tuple(value)
 
 
-def _path(source, table, key):
-    """A file named relative to the scene file."""
-    raw = table.data.get(key)
-    if not isinstance(raw, str) or not raw:
-        table._fail(key, raw if raw is not None else "missing", "must be the path of a file")
-    path = Path(raw)
-    if not path.is_absolute() and source != "<string>":
-        path = Path(source).parent / path
+def _path(table, key):
+    """An existing file named relative to the scene file."""
+    path = table.file(key, "must be the path of a file")
     if not path.is_file():
-        table._fail(key, raw, "must be the path of a file; there is no such file")
+        table._fail(key, table.data[key], "must be the path of a file; there is no such file")
     return str(path)
 
 
@@ -242,7 +236,7 @@ def _geometry(source, data, dim):
             geometry._fail(key, geometry.data[key], f'is not a key of geometry.kind = "{kind}" (its keys:'
                            f' {", ".join(GEOMETRIES[kind])})')
     if kind == "file":
-        return Geometry(kind, file=_path(source, geometry, "file"))
+        return Geometry(kind, file=_path(geometry, "file"))
     if kind == "three_point_bending" and dim != 2:
         geometry._fail("kind", kind, "is a 2D geometry (model.dim = 2)")
     options = {}
@@ -329,7 +323,7 @@ def parse(source, data, text):
     reference = None
     if isinstance(output, dict) and "reference" in output:
         table = Table(source, "output", output, ("snapshots", "reference"))
-        reference = _path(source, table, "reference")
+        reference = _path(table, "reference")
         output = {k: v for k, v in output.items() if k != "reference"}
     snapshots = read_snapshots(source, output, loading.t_max)
     return FemScene(model=model, geometry=geometry, mesh=mesh, load=loading, solver=solver, text=text,

@@ -22,7 +22,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-__all__ = ["OptionError", "Rule", "option", "validate", "scene_keys", "reference_rows"]
+__all__ = ["OptionError", "Rule", "option", "validate", "scene_keys", "reference_rows", "real_in_range"]
 
 
 class OptionError(ValueError):
@@ -195,3 +195,25 @@ def reference_rows(cls, prefix="", head=None) -> list[tuple[str, str, str, str, 
         allowed = allowed[len("must be "):] if allowed.startswith("must be ") else allowed
         rows.append((key, shown, allowed, f.metadata["units"], f.metadata["doc"]))
     return rows
+
+
+def real_in_range(name, value, low, high, low_open=False, high_open=True):
+    """``float(value)``, checked finite and in the interval from ``low`` to ``high`` (open or
+    closed at each end): the argument check of the models' operator constructors.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not a real number.
+    ValueError
+        Naming ``name``, the value and the interval, if it is outside.
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} = {value!r} must be a real number") from None
+    ok = math.isfinite(v) and (v > low if low_open else v >= low) and (v < high if high_open else v <= high)
+    if not ok:
+        raise ValueError(f"{name} = {value!r} outside the allowed range "
+                         f"{'(' if low_open else '['}{low}, {high}{')' if high_open else ']'}")
+    return v

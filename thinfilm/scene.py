@@ -153,6 +153,19 @@ class Table:
             self._fail(key, value, "must be true or false")
         return value
 
+    def file(self, key, allowed):
+        """The file that the string ``key`` names, relative to the scene file's folder (an
+        absolute path, or any path of a scene given as a string, as it is). ``allowed``: the
+        error's phrase for a value that is not a non-empty string. Whether the file exists
+        and what it holds are the caller's checks."""
+        raw = self.data.get(key)
+        if not isinstance(raw, str) or not raw:
+            self._fail(key, raw if raw is not None else "missing", allowed)
+        path = Path(raw)
+        if not path.is_absolute() and self.source != "<string>":
+            path = Path(self.source).parent / path
+        return path
+
     def interval(self, key, *, required=True):
         """A pair ``[a, b]`` of finite numbers with ``a < b``; None if absent and optional."""
         if key not in self.data and not required:

@@ -86,6 +86,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from thinfilm.options import real_in_range
 from thinfilm.plate.grid import Grid
 from thinfilm.plate import energy
 from thinfilm.plate.kernels import stencil as kernels
@@ -104,19 +105,6 @@ def degradation(alpha: np.ndarray, k_res: float) -> np.ndarray:
     """``g(alpha) = (1 - alpha)^2 + k_res``, elementwise, float64."""
     one_minus = 1.0 - np.asarray(alpha, dtype=np.float64)
     return one_minus * one_minus + k_res
-
-
-def _finite_scalar(name: str, value, low: float, high: float, low_open: bool, high_open: bool) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} = {value!r} must be a real number") from None
-    ok = math.isfinite(v) and (v > low if low_open else v >= low) and (v < high if high_open else v <= high)
-    if not ok:
-        lb = "(" if low_open else "["
-        hb = ")" if high_open else "]"
-        raise ValueError(f"{name} = {value!r} outside the allowed range {lb}{low}, {high}{hb}")
-    return v
 
 
 def near_nullspace(coords):
@@ -185,9 +173,9 @@ class PlateOperator:
         if not isinstance(grid, Grid):
             raise TypeError(f"grid = {grid!r} must be a thinfilm.plate.grid.Grid")
         self.grid = grid
-        self.nu = _finite_scalar("nu", nu, -1.0, 1.0, True, True)
-        self.winkler = _finite_scalar("winkler", winkler, 0.0, math.inf, False, True)
-        self.k_res = _finite_scalar("k_res", k_res, 0.0, math.inf, False, True)
+        self.nu = real_in_range("nu", nu, -1.0, 1.0, True, True)
+        self.winkler = real_in_range("winkler", winkler, 0.0, math.inf, False, True)
+        self.k_res = real_in_range("k_res", k_res, 0.0, math.inf, False, True)
         if isinstance(clamped, str):
             clamped = (clamped,)
         clamped = tuple(clamped)
@@ -363,8 +351,8 @@ class DamageOperator:
         if not isinstance(grid, Grid):
             raise TypeError(f"grid = {grid!r} must be a thinfilm.plate.grid.Grid")
         self.grid = grid
-        self.eta = _finite_scalar("eta", eta, 0.0, math.inf, True, True)
-        self.toughness = _finite_scalar("toughness", toughness, 0.0, math.inf, True, True)
+        self.eta = real_in_range("eta", eta, 0.0, math.inf, True, True)
+        self.toughness = real_in_range("toughness", toughness, 0.0, math.inf, True, True)
         if isinstance(at, bool) or at not in (1, 2):
             raise ValueError(f"at = {at!r} must be 1 or 2")
         self.at = int(at)

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -213,20 +212,16 @@ def parse(source, data, text):
     if options.stability.enabled and dom.symmetry != "none":
         solver._fail("stability", True, f'follows modes that break the symmetry; it needs domain.symmetry ='
                      f' "none" (not "{dom.symmetry}")')
-    coarse = _check_coarse(source, solver, params, plate_load, dim) if solver.has("coarse") else None
+    coarse = _check_coarse(solver, params, plate_load, dim) if solver.has("coarse") else None
     snapshots = read_snapshots(source, data.get("output", {}), plate_load.t_max)
     return PlateScene(model=params, domain=dom, load=plate_load, solver=options, text=text, source=str(source),
                       material=material, snapshots=snapshots, coarse=coarse)
 
 
-def _check_coarse(source, solver, params, load, dim):
+def _check_coarse(solver, params, load, dim):
     """``[solver] coarse``: the path of a plate run of the same model and load, checked."""
+    path = solver.file("coarse", "must be the path of the results.h5 of a coarser run of the same scene")
     raw = solver.data["coarse"]
-    if not isinstance(raw, str):
-        solver._fail("coarse", raw, "must be the path of the results.h5 of a coarser run of the same scene")
-    path = Path(raw)
-    if not path.is_absolute() and source != "<string>":
-        path = Path(source).parent / path
     if not path.exists():
         solver._fail("coarse", raw, "must be the results.h5 of a coarser run of the same scene; there is no such"
                      " file (run that scene first)")
@@ -295,21 +290,17 @@ def _parse_load(source, load, dom):
         raise SceneError(source, "domain.x", f"= {show(list(dom.x))}: the cantilever is clamped at x = 0;"
                          " the domain must start there")
     if kind == "field":
-        file, field = _read_field(source, load, dom)
+        file, field = _read_field(load, dom)
     return PlateLoad(kind=kind, t_max=t_max, steps=steps, radius=radius, field=field, file=file)
 
 
-def _read_field(source, load, dom):
+def _read_field(load, dom):
     """The substrate displacement of a ``"field"`` load, from ``.npz`` or HDF5, checked."""
     name = load.data.get("name", "w")
     if not isinstance(name, str):
         load._fail("name", name, "must be a string (the array's name in the file)")
-    raw = load.data.get("file")
-    if not isinstance(raw, str):
-        load._fail("file", raw if raw is not None else "missing", "must be the path of an .npz or HDF5 file")
-    path = Path(raw)
-    if not path.is_absolute() and source != "<string>":
-        path = Path(source).parent / path
+    path = load.file("file", "must be the path of an .npz or HDF5 file")
+    raw = load.data["file"]
     try:
         if path.suffix == ".npz":
             with np.load(path) as archive:
