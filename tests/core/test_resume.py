@@ -106,14 +106,18 @@ def reference_mirror(tmp_path_factory):
     return _reference(tmp_path_factory, {**FILM, "domain.symmetry": "mirror_x"})
 
 
-@pytest.mark.parametrize("name", ["reference", "reference_mirror"])
-def test_killed_run_resumes_to_the_same_results(name, request, tmp_path):
+@pytest.mark.parametrize("name, stop", [("reference", 10), ("reference", 30), ("reference_mirror", 30)])
+def test_killed_run_resumes_to_the_same_results(name, stop, request, tmp_path):
     scene, (steps, alpha, u) = request.getfixturevalue(name)
     out = tmp_path / "out"
     proc = _start(scene, out)
-    _stop_after(proc, out / "results.h5", 30, signal.SIGKILL)
+    _stop_after(proc, out / "results.h5", stop, signal.SIGKILL)
     done = _steps_done(out / "results.h5")
-    assert 30 <= done < 61  # a valid file with the finished steps
+    assert stop <= done < 61  # a valid file with the finished steps
+    if stop == 10:
+        # before the first crack: the next step rescales the last u instead of solving, and the
+        # resumed run must rescale the very same numbers (steps/u_rescalable restores them)
+        assert steps["u_rescalable"][done - 1] == 1 and steps["u_solves_skipped"][done] >= 1
     assert main(_args(scene, out)) == 2  # refuses to overwrite
     _run(scene, out, "--resume")
     got_steps, got_alpha, got_u = _fields(out / "results.h5")

@@ -129,6 +129,25 @@ class Engine:
         self._u_cache = (u, alpha.copy(), t)
         return u
 
+    def _keep_u(self, state):
+        """After a step: keep its ``u`` as the one the next step may rescale, if it is the last
+        u-solve's at the step's damage (bit for bit); returns whether it is.
+
+        The kept triple is the step's stored state, so a run resumed from the file (which
+        restores it when the step's record says so) rescales exactly the same numbers.
+        """
+        cache = self._u_cache
+        if self.model.proportional and cache is not None and np.array_equal(cache[1], state.alpha):
+            if cache[2] == state.t:
+                solved = cache[0]
+            else:  # the rescaled u, computed as _solve_u computes it
+                solved = cache[0] * (state.t / cache[2]) if cache[2] != 0.0 else None
+            if solved is not None and np.array_equal(solved, state.u):
+                self._u_cache = (state.u, cache[1], state.t)
+                return True
+        self._u_cache = None
+        return False
+
     def _solve_alpha(self, u, t, alpha, lower, record, step, iteration):
         start = time.perf_counter()
         A, b = self.model.damage_problem(u, t)
@@ -420,9 +439,9 @@ class Engine:
             after a backtrack).
         history : sequence of State, optional
             Steps ``0 .. k`` already finished (a resumed run): the evolution continues at
-            step ``k + 1`` from them as it would have without the stop, except that its
-            first u-solve is never skipped (the damage the last ``u`` was solved at is not
-            kept). Each state needs ``t``, ``alpha`` and the energies, and the last one also
+            step ``k + 1`` from them as it would have without the stop, bit for bit: the last
+            state's ``u_rescalable`` (its step's record) restores the u the next step may
+            rescale. Each state needs ``t``, ``alpha`` and the energies, and the last one also
             ``u``.
         guess : callable, optional
             ``guess(t)``: a damage field (shape ``(n_alpha,)``) to start step ``t`` from, or
@@ -448,6 +467,9 @@ class Engine:
         alpha_start, u_start = alpha_prev, None
         if states:
             alpha_start, u_start = states[-1].alpha, self._warm_start(states[-1], t_values, i)
+            last = states[-1]
+            if last.u_rescalable and self.model.proportional:
+                self._u_cache = (last.u, np.array(last.alpha, dtype=float), last.t)
         while i < len(t_values):
             t = float(t_values[i])
             lower = alpha_prev if i == 0 else states[i - 1].alpha
@@ -484,6 +506,7 @@ class Engine:
                 continue
             record.time_total = time.perf_counter() - started
             record.elastic, record.surface, record.total = state.elastic, state.surface, state.total
+            record.u_rescalable = int(self._keep_u(state))
             states.append(state)
             records.append(record)
             if on_step is not None:

@@ -41,6 +41,11 @@ class StepRecord:
         in the rounds allowed); NaN without it.
     saddles_left : int
         Saddles the stability check left at this step.
+    u_rescalable : int
+        1 if the step's ``u`` is, bit for bit, the last u-solve's at the step's own damage
+        (solved, or rescaled from an earlier solve at that damage): with a proportional load
+        the next step may then rescale it instead of solving while its damage stays the same.
+        Stored, so that a resumed run makes the same choice as an uninterrupted one.
     time_u, time_alpha, time_total : float
         Wall-clock seconds in u-solves, alpha-solves and in the whole step.
     energy_history : list of float
@@ -64,18 +69,24 @@ class StepRecord:
     extrapolations_rejected: int = 0
     lowest_curvature: float = math.nan
     saddles_left: int = 0
+    u_rescalable: int = 0
     energy_history: list = field(default_factory=list)
 
 
 @dataclass
 class State:
-    """A converged state ``(u, alpha)`` at load ``t`` with its energies."""
+    """A converged state ``(u, alpha)`` at load ``t`` with its energies.
+
+    ``u_rescalable``: a resumed run's last state whose step recorded
+    :attr:`StepRecord.u_rescalable` (the engine's own states do not use it).
+    """
 
     t: float
     u: np.ndarray
     alpha: np.ndarray
     elastic: float
     surface: float
+    u_rescalable: bool = False
 
     @property
     def total(self):

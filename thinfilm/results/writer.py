@@ -13,7 +13,7 @@ driven by the engine, whatever its kind::
     /steps/<name>      (n,) one value per finished step: the StepRecord's t, elastic, surface,
                        total, iterations, u_solves, u_solves_skipped, backtracks, trials,
                        trials_accepted, time_u, time_alpha, time_total (seconds),
-                       lowest_curvature, saddles_left; then the kind's observables
+                       lowest_curvature, saddles_left, u_rescalable; then the kind's observables
     /fields/u          (n, n_nodes * components) displacement of each finished step
     /fields/alpha      (n, n_nodes) damage of each finished step
     /fields/<name>     a field stored once (e.g. the toughness of an imperfect film), with
@@ -45,10 +45,10 @@ __all__ = ["ResumeError", "ResultsWriter", "STEP_FIELDS", "INTEGER_STEP_FIELDS",
 #: Per-step records of an engine run, in /steps (names of thinfilm.engine.records.StepRecord).
 STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_solves_skipped",
                "backtracks", "trials", "trials_accepted", "time_u", "time_alpha", "time_total",
-               "lowest_curvature", "saddles_left")
+               "lowest_curvature", "saddles_left", "u_rescalable")
 #: The integer ones among them.
 INTEGER_STEP_FIELDS = ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials", "trials_accepted",
-                       "saddles_left")
+                       "saddles_left", "u_rescalable")
 
 
 class ResumeError(RuntimeError):
@@ -225,12 +225,14 @@ class ResultsWriter:
         f = self.file
         n = finished_steps(f)
         t, elastic, surface = (f["steps"][name][:n] for name in ("t", "elastic", "surface"))
+        rescalable = f["steps"]["u_rescalable"][:n] if "u_rescalable" in f["steps"] else np.zeros(n)
         states = []
         for k in range(n):
             last = k == n - 1
             alpha = f["fields/alpha"][k] if (all_alpha or last) else None
             u = f["fields/u"][k] if last else None
-            states.append(State(float(t[k]), u, alpha, float(elastic[k]), float(surface[k])))
+            states.append(State(float(t[k]), u, alpha, float(elastic[k]), float(surface[k]),
+                                u_rescalable=bool(last and rescalable[k])))
         return states
 
     def close(self):
