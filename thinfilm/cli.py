@@ -1,4 +1,5 @@
-"""The command line: ``thinfilm run SCENE.toml [--out DIR] [--resume | --force] [--quiet]``.
+"""The command line: ``thinfilm run SCENE.toml [--out DIR] [--resume | --force] [--quiet]``,
+``thinfilm scan SCAN.toml`` (:mod:`thinfilm.scan`), ``compare``, ``plot`` and ``info``.
 
 Library code raises exceptions; only this module turns them into messages and exit codes.
 A bad scene is reported in one line on stderr with exit status 2, before anything is
@@ -154,6 +155,69 @@ def _info(args):
     return 0
 
 
+def _scan(args):
+    """``thinfilm scan SCAN.toml``: every run of a parameter scan on Dask, one table and figure;
+    ``thinfilm scan --collect DIR``: the table and figure rebuilt from a scan directory."""
+    from thinfilm.scan.plan import ScanError, load_plan
+    from thinfilm.scan.table import TableError, collect
+
+    if args.collect is not None:
+        if args.scan is not None or args.resume or args.force or args.workers or args.scheduler:
+            raise ScanError(args.collect, None, "--collect DIR reads a scan directory alone: give no scan file"
+                            " and none of --resume, --force, --workers, --scheduler")
+        try:
+            table, figure, counts = collect(args.collect)
+        except TableError as err:
+            return _inspect_error(err)
+        return _scan_report(args, table, figure, counts)
+    if args.scan is None:
+        raise ScanError("thinfilm scan", None, "give a scan file (thinfilm scan SCAN.toml) or --collect DIR")
+    if args.resume and args.force:
+        raise ScanError(args.scan, None, "--resume and --force exclude each other")
+    if args.workers is not None and args.scheduler:
+        raise ScanError(args.scan, None, f"--workers {args.workers}: applies to the local cluster; with"
+                        " --scheduler the cluster's own workers run the scan")
+    if args.workers is not None and args.workers < 1:
+        raise ScanError(args.scan, None, f"--workers {args.workers}: must be an integer >= 1")
+    plan = load_plan(args.scan)  # every run's scene validated: nothing starts on a bad one
+    outdir = Path(args.out) if args.out else default_outdir(args.scan)
+    if outdir.exists() and not outdir.is_dir():
+        raise ScanError(args.scan, None, f"output path {outdir} exists and is not a directory (use --out DIR)")
+    if (outdir / "scan.json").exists() and not args.resume and not args.force:
+        raise ScanError(args.scan, None, f"output directory {outdir} already holds a scan; use --resume to"
+                        " continue it or --force to run it again from nothing")
+    from thinfilm.scan.execute import execute
+
+    with tqdm(total=len(plan.runs), desc=Path(args.scan).stem, unit="run", disable=True if args.quiet else None,
+              file=sys.stderr) as bar:
+        if args.resume:
+            from thinfilm.scan.table import run_dir
+            from thinfilm.scan.task import read_record
+
+            bar.update(sum((read_record(run_dir(outdir, r.name)) or {}).get("status") == "done" for r in plan.runs))
+        try:
+            table, figure, counts = execute(plan, outdir, workers=args.workers, scheduler=args.scheduler,
+                                            resume=args.resume, progress=lambda record: bar.update())
+        except OSError as err:  # no scheduler at that address, for one
+            print(f"thinfilm: error: {args.scan}: the Dask cluster failed: {err}", file=sys.stderr)
+            return EXIT_FAILED
+        except KeyboardInterrupt:
+            print(f"thinfilm: interrupted; the finished runs and steps are kept in {outdir}; continue with:"
+                  f" thinfilm scan {args.scan} --resume" + (f" --out {args.out}" if args.out else ""),
+                  file=sys.stderr)
+            return EXIT_INTERRUPTED
+    return _scan_report(args, table, figure, counts)
+
+
+def _scan_report(args, table, figure, counts):
+    """The scan's last lines; exit status 1 if any run failed or is not finished."""
+    total = sum(counts.values())
+    if not args.quiet:
+        print(f"{total} runs: " + ", ".join(f"{n} {status}" for status, n in sorted(counts.items())))
+        print(f"wrote {table}" + (f", {figure}" if figure else ""))
+    return 0 if counts.get("done", 0) == total else EXIT_FAILED
+
+
 def _add_inspect_commands(sub):
     """The subcommands that work from a results file alone: ``plot`` and ``info``."""
     plot = sub.add_parser("plot", help="redraw every figure (and results.xdmf) from a results.h5 alone")
@@ -196,6 +260,23 @@ def build_parser():
                       help="set a scene key, as for run")
     cmp_.set_defaults(func=_compare)
     _add_inspect_commands(sub)
+    scan = sub.add_parser("scan", help="run a parameter scan (a base scene, keys varied) on Dask and tabulate it",
+                          description="Run every scene of a scan file on a Dask cluster (local worker processes"
+                          " by default) and write DIR/scan.csv, DIR/scan.png and one directory per run"
+                          " (docs/scans.md).")
+    scan.add_argument("scan", nargs="?", help="scan file (TOML)")
+    scan.add_argument("--out", metavar="DIR", help="scan directory (default: next to the scan file, named after it)")
+    scan.add_argument("--workers", metavar="N", type=int,
+                      help="local worker processes, one thread each (default: the machine's cores)")
+    scan.add_argument("--scheduler", metavar="ADDRESS",
+                      help="submit to a running Dask scheduler (e.g. tcp://host:8786) instead of a local cluster")
+    scan.add_argument("--resume", action="store_true",
+                      help="keep the finished runs of DIR and continue the unfinished ones from their last step")
+    scan.add_argument("--force", action="store_true", help="run every run again from nothing, overwriting DIR's runs")
+    scan.add_argument("--collect", metavar="DIR", help="rebuild DIR/scan.csv and scan.png from the runs' files;"
+                      " run nothing")
+    scan.add_argument("--quiet", action="store_true", help="no progress bar and no report")
+    scan.set_defaults(func=_scan)
     return parser
 
 

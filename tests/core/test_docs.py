@@ -67,3 +67,15 @@ def test_the_scene_reference_lists_every_solver_option():
     assert m.group(1).strip() == solver_reference().strip(), (
         "docs/scenes.md's [solver] table differs from the options' declarations; paste the output of"
         " python -c 'from thinfilm.scene import solver_reference; print(solver_reference())'")
+
+
+def test_the_scan_page_lists_every_metric():
+    from thinfilm.scan.metrics import metrics_reference
+
+    page = (ROOT / "docs" / "scans.md").read_text(encoding="utf-8")
+    m = re.search(r"<!-- metrics -->\n(.*?)\n<!-- /metrics -->", page, re.S)
+    if m is None:
+        pytest.fail("docs/scans.md has no <!-- metrics --> table")
+    assert m.group(1).strip() == metrics_reference().strip(), (
+        "docs/scans.md's metrics table differs from thinfilm.scan.metrics.METRICS; paste the output of"
+        " python -c 'from thinfilm.scan.metrics import metrics_reference; print(metrics_reference())'")
