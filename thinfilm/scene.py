@@ -34,7 +34,7 @@ from thinfilm.options import OptionError, Rule, option, reference_rows, scene_ke
 from thinfilm.solvers.linear import KINDS as LINEAR_KINDS
 
 __all__ = ["SceneError", "Table", "show", "SolverSettings", "read_solver", "read_snapshots", "parse_scene", "load_scene",
-           "apply_overrides"]
+           "apply_overrides", "read_text"]
 
 
 class SceneError(ValueError):
@@ -391,13 +391,17 @@ def load_scene(path, overrides=None):
         If the file cannot be read or is not a valid scene.
     """
     path = Path(path)
+    return parse_scene(read_text(path), source=str(path), overrides=overrides)
+
+
+def read_text(path, what="scene file", error=SceneError):
+    """The UTF-8 text of an input file, or ``error`` (a :class:`SceneError`) in one line."""
     try:
-        text = path.read_text(encoding="utf-8")
+        return Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise SceneError(path, None, "no such file") from None
+        raise error(path, None, "no such file") from None
     except (IsADirectoryError, PermissionError, UnicodeDecodeError) as err:
-        raise SceneError(path, None, f"cannot read the scene file ({err.__class__.__name__})") from None
-    return parse_scene(text, source=str(path), overrides=overrides)
+        raise error(path, None, f"cannot read the {what} ({err.__class__.__name__})") from None
 
 
 def solver_reference():

@@ -59,12 +59,17 @@ def test_every_cited_page_and_heading_exists():
     assert not missing
 
 
-def test_the_scene_reference_lists_every_solver_option():
-    page = (ROOT / "docs" / "scenes.md").read_text(encoding="utf-8")
-    m = re.search(r"<!-- solver-options -->\n(.*?)\n<!-- /solver-options -->", page, re.S)
+def _generated_table(page, marker):
+    """The text between ``<!-- marker -->`` and ``<!-- /marker -->`` of a docs page."""
+    text = (ROOT / "docs" / page).read_text(encoding="utf-8")
+    m = re.search(rf"<!-- {marker} -->\n(.*?)\n<!-- /{marker} -->", text, re.S)
     if m is None:
-        pytest.fail("docs/scenes.md has no <!-- solver-options --> table")
-    assert m.group(1).strip() == solver_reference().strip(), (
+        pytest.fail(f"docs/{page} has no <!-- {marker} --> table")
+    return m.group(1).strip()
+
+
+def test_the_scene_reference_lists_every_solver_option():
+    assert _generated_table("scenes.md", "solver-options") == solver_reference().strip(), (
         "docs/scenes.md's [solver] table differs from the options' declarations; paste the output of"
         " python -c 'from thinfilm.scene import solver_reference; print(solver_reference())'")
 
@@ -72,10 +77,6 @@ def test_the_scene_reference_lists_every_solver_option():
 def test_the_scan_page_lists_every_metric():
     from thinfilm.scan.metrics import metrics_reference
 
-    page = (ROOT / "docs" / "scans.md").read_text(encoding="utf-8")
-    m = re.search(r"<!-- metrics -->\n(.*?)\n<!-- /metrics -->", page, re.S)
-    if m is None:
-        pytest.fail("docs/scans.md has no <!-- metrics --> table")
-    assert m.group(1).strip() == metrics_reference().strip(), (
+    assert _generated_table("scans.md", "metrics") == metrics_reference().strip(), (
         "docs/scans.md's metrics table differs from thinfilm.scan.metrics.METRICS; paste the output of"
         " python -c 'from thinfilm.scan.metrics import metrics_reference; print(metrics_reference())'")

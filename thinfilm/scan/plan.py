@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from thinfilm.scan.metrics import METRICS
-from thinfilm.scene import SceneError, Table, load_scene, show
+from thinfilm.scene import SceneError, Table, load_scene, read_text, show
 
 __all__ = ["ScanError", "RunSpec", "ScanPlan", "parse_plan", "load_plan", "run_name", "check_metrics", "MODES"]
 
@@ -262,11 +262,5 @@ def load_plan(path, validate=True):
     ScanError
         If the file cannot be read or the scan is not valid.
     """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ScanError(path, None, "no such file") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as err:
-        raise ScanError(path, None, f"cannot read the scan file ({err.__class__.__name__})") from None
+    text = read_text(path, "scan file", ScanError)
     return parse_plan(text, source=str(path), validate=validate)
