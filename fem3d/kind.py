@@ -83,6 +83,18 @@ def build_model(scene, mesh):
     return FemModel(mesh, elasticity, damage, loads, solver)
 
 
+def release_rate(results):
+    """G and a of each finished step (:func:`fem3d.release.energy_release_rate`): the crack
+    front runs through the thickness (2D: ``thickness``; 3D: the mesh's extent in z), from no
+    starter notch (a0 = 0), and G is taken over growths of at least one mesh size ``h``."""
+    from fem3d.release import energy_release_rate
+
+    p = results.parameters
+    thickness = p["thickness"] if int(p["dim"]) == 2 else float(np.ptp(results.discretization.points[:, 2]))
+    return energy_release_rate(results.t, results.steps["elastic"], results.steps["surface"], p["Gc"], thickness,
+                               a0=0.0, da_min=p["h"])
+
+
 def crack_lengths(results):
     """The crack length of each finished step (2D: surface energy over ``Gc T``; 3D: an area,
     over ``Gc``) and the growth in one step that counts as an event (:func:`crack_events`):
@@ -166,7 +178,10 @@ class FemKind(EvolutionKind):
 
     def summary(self, scene, results):
         length, jump = crack_lengths(results)
-        steps = {"crack_length": length.tolist()}
+        G, a = release_rate(results)
+        # JSON has no NaN: null where the front did not move
+        steps = {"crack_length": length.tolist(), "G": [None if np.isnan(g) else float(g) for g in G],
+                 "a": a.tolist()}
         for name in ("force", "displacement"):
             if name in results.steps:
                 steps[name] = results.steps[name].tolist()
@@ -181,11 +196,13 @@ class FemKind(EvolutionKind):
         return lines
 
     def figures(self, results, outdir):
-        from fem3d.plots import crack_length_figure, crack_surface_figure, force_displacement_figure
+        from fem3d.plots import (crack_length_figure, crack_surface_figure, force_displacement_figure,
+                                 release_rate_figure)
 
         p = results.parameters
         length, jump = crack_lengths(results)
-        paths = [crack_length_figure(results, outdir, length, int(p["dim"]))]
+        paths = [crack_length_figure(results, outdir, length, int(p["dim"])),
+                 release_rate_figure(results, outdir, *release_rate(results))]
         if "force" in results.steps:
             events = [e["t"] for e in crack_events(results.t, length, jump)]
             paths.insert(0, force_displacement_figure(results, outdir, p.get("reference"), events))

@@ -87,6 +87,25 @@ def crack_length_figure(res, outdir, length, dim):
     return path
 
 
+def release_rate_figure(res, outdir, G, a):
+    """``release_rate.png``: G / Gc against the crack length a, where the front moved (None if
+    it never did)."""
+    moved = np.isfinite(G)
+    if not moved.any():
+        return None
+    path = Path(outdir) / "release_rate.png"
+    fig, ax = line_figure(6.4, 4.2)
+    ax.axhline(1.0, color="0.6", lw=0.8, ls="--")
+    ax.plot(a[moved], G[moved] / res.parameters["Gc"], "o-", ms=3, color="tab:blue")
+    ax.set_xlabel("crack length a = S/(Gc T)")
+    ax.set_ylabel("energy release rate G / Gc")
+    ax.set_ylim(0.0, max(1.5, float(np.nanmin([np.nanmax(G[moved]) / res.parameters["Gc"], 3.0])) * 1.05))
+    ax.set_title(f"G = (2 (B/t) dt - dB) / dA over growths of at least h{progress_note(res)}", fontsize=10)
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
 def crack_surface_figure(res, outdir):
     """``crack_surface.png``: the broken nodes of the last finished step, three views."""
     path = Path(outdir) / "crack_surface.png"

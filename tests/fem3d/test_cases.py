@@ -81,6 +81,20 @@ def test_lpanel_brutal_nucleation_from_the_corner(lpanel):
     assert length > 50.0 and 0.0 <= 180.0 - angle <= 43.0
 
 
+def test_lpanel_stable_growth_releases_the_toughness(lpanel):
+    # G = (2 (B/t) dt - dB) / dA with A = S/Gc (docs/model.md#energy-release-rate):
+    # while the crack grows stably after the jump the discrete evolution keeps the energy
+    # balance, and G = Gc; over the jump itself energy is lost (G > Gc).
+    scene, res, summary = lpanel
+    G = np.array([np.nan if g is None else g for g in summary["steps"]["G"]]) / scene.model.Gc
+    t = np.asarray(summary["steps"]["t"])
+    jump = summary["events"][0]["t"]
+    assert np.isnan(G[t < jump]).all()                         # the front stood still before the jump
+    assert G[t == jump][0] > 1.1
+    stable = G[(t > jump) & np.isfinite(G)]
+    assert len(stable) >= 4 and np.all(np.abs(stable - 1.0) < 0.03)
+
+
 
 def test_lpanel_backtracking_lowers_the_critical_load(lpanel, tmp_path_factory):
     """Table 3.2's ordering u_c(deep) <= u_c(Alg. 3.1) < u_c(none), each within 12% of its row.

@@ -1,0 +1,52 @@
+"""The energy release rate of an evolution from its steps, against closed forms."""
+
+import numpy as np
+import pytest
+
+from fem3d.release import energy_release_rate
+
+
+def compliance_evolution(t, Gc=None):
+    """A synthetic evolution with B = c(A) t^2, c(A) = 1 / (2 (1 + A)): G = t^2 / (2 (1 + A)^2).
+    With ``Gc``, the crack grows so that G = Gc (t = (1 + A) sqrt(2 Gc)); else A = 2 (t - 1)
+    (then G = t^2 / (2 (2 t - 1)^2) varies along the path)."""
+    A = t / np.sqrt(2.0 * Gc) - 1.0 if Gc else 2.0 * (t - 1.0)
+    A = np.maximum(A, 0.0)
+    return A, t ** 2 / (2.0 * (1.0 + A))
+
+
+@pytest.mark.parametrize("Gc", [0.5, 2.0])
+def test_an_evolution_that_keeps_the_energy_balance_releases_gc(Gc):
+    t = np.linspace(0.0, 3.0 * np.sqrt(2.0 * Gc), 61)
+    A, B = compliance_evolution(t, Gc)
+    thickness = 4.0
+    G, a = energy_release_rate(t, B, Gc * A, Gc, thickness, a0=0.1)
+    np.testing.assert_allclose(a, A / thickness + 0.1)
+    growing = np.flatnonzero(np.diff(A) > 0) + 1
+    assert np.isnan(G[: growing[0]]).all() and np.isfinite(G[growing[1:]]).all()   # stationary: NaN
+    np.testing.assert_allclose(G[growing[1:]], Gc, rtol=2e-3)                      # G > 0: the sign fixed
+
+
+def test_finite_differences_converge_at_second_order():
+    def error(n):
+        t = np.linspace(1.0, 2.0, n + 1)
+        A, B = compliance_evolution(t)
+        G, _ = energy_release_rate(t, B, A, 1.0, 1.0)
+        mid_t, mid_A = 0.5 * (t[1:] + t[:-1]), 0.5 * (A[1:] + A[:-1])
+        exact = mid_t ** 2 / (2.0 * (1.0 + mid_A) ** 2)
+        return np.max(np.abs(G[1:] - exact))
+
+    errors = [error(n) for n in (20, 40, 80, 160)]
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))     # 1.89, 1.94, 1.97: towards 2
+    assert errors[-1] < 2e-5 and np.all(np.diff(orders) > 0) and abs(orders[-1] - 2.0) < 0.05
+
+
+def test_growth_below_da_min_is_merged_into_one_interval():
+    t = np.array([0.0, 1.0, 1.05, 1.1, 1.15, 1.2])                # A = 0, 0, 0.1, 0.2, 0.3, 0.4
+    A, B = compliance_evolution(t)
+    G, _ = energy_release_rate(t, B, A, 1.0, 1.0, da_min=0.25)
+    assert np.isnan(G[:4]).all() and np.isfinite(G[4:]).all()     # A - A_j >= 0.25 from step 4 on
+    # step 4's G over steps 1 .. 4 (A = 0 .. 0.3), step 5's over steps 2 .. 5 (A = 0.1 .. 0.4)
+    for k, j in ((4, 1), (5, 2)):
+        difference = (B[j] / t[j] + B[k] / t[k]) * (t[k] - t[j]) - (B[k] - B[j])
+        assert G[k] == pytest.approx(difference / (A[k] - A[j]), rel=1e-12)
