@@ -164,3 +164,20 @@ def test_a_separately_started_cluster_gives_the_same_table(exact1d_scan, tmp_pat
                 process.wait(timeout=20)
             except subprocess.TimeoutExpired:
                 process.kill()
+
+
+def test_ctrl_c_stops_the_scan_cleanly_with_status_130(spacing_scan, tmp_path):
+    plan = spacing_scan[0]
+    out = tmp_path / "scan"
+    command = [sys.executable, "-m", "thinfilm", "scan", str(SPACING), "--out", str(out), "--workers", "1"]
+    scan = subprocess.Popen(command, cwd=ROOT, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    try:
+        wait_for_a_run_midway(out, plan, steps=5)
+    finally:
+        os.killpg(scan.pid, signal.SIGINT)            # a terminal's Ctrl-C: the scan and its workers
+        _, err = scan.communicate(timeout=60)
+    assert scan.returncode == 130
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err     # the workers left it to the scan
+    assert err.strip().splitlines()[-1] == (f"thinfilm: interrupted; the finished runs and steps are kept in {out};"
+                                            f" continue with: thinfilm scan {SPACING} --resume --out {out}")

@@ -26,20 +26,39 @@ from __future__ import annotations
 import logging
 import os
 import shutil
+import signal
+import threading
 import time
 from pathlib import Path
+
+from distributed import WorkerPlugin
 
 from thinfilm.results.writer import write_json
 from thinfilm.scan.table import collect, run_dir, write_plan
 from thinfilm.scan.task import RECORD, read_record, run_task
 
-__all__ = ["execute", "local_cluster", "THREAD_VARIABLES"]
+__all__ = ["execute", "local_cluster", "IgnoreInterrupt", "THREAD_VARIABLES"]
 
 #: Seconds between two rewrites of scan.csv while runs finish.
 TABLE_INTERVAL = 10.0
 #: Environment of every local worker: one thread for each numerical library.
 THREAD_VARIABLES = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
                     "NUMBA_NUM_THREADS": "1"}
+
+
+class IgnoreInterrupt(WorkerPlugin):
+    """Local workers leave Ctrl-C to the scan.
+
+    A terminal's Ctrl-C goes to every process of its group, the local workers too; a worker
+    would die on it mid-run with a traceback. Ignoring it, the workers stop when the scan,
+    which saved what it has, closes its cluster.
+    """
+
+    name = "thinfilm-ignore-interrupt"
+
+    def setup(self, worker):
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def local_cluster(workers=None):
@@ -109,6 +128,7 @@ def execute(plan, outdir, *, client=None, workers=None, scheduler=None, resume=F
         else:
             cluster = local_cluster(workers)
             client = Client(cluster)
+            client.register_plugin(IgnoreInterrupt())
     try:
         futures = {}
         for spec in todo:
