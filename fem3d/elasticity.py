@@ -139,6 +139,9 @@ class Elasticity:
     constrained : array of int, optional
         The constrained (Dirichlet) dofs ``node * d + component``, sorted without repeats.
         Default: none (``K`` is then singular: the rigid-body modes).
+    modulus : ndarray, shape (n_cells,), optional
+        Each cell's Young's modulus over ``E`` (a buffer layer's ``E_b / E``), > 0, the same
+        ``nu``; default 1 everywhere. It multiplies the cell's stiffness, stress and energy.
 
     Attributes
     ----------
@@ -153,12 +156,14 @@ class Elasticity:
         Gradients of the P1 basis functions (1 / length).
     measure : ndarray, shape (n_cells,)
         Cell areas or volumes.
+    modulus : ndarray, shape (n_cells,)
+        The cells' moduli over ``E``.
     nnz : int
         Stored entries of ``K_ff``.
     """
 
     def __init__(self, mesh: Mesh, E: float, nu: float, *, plane: str = "stress", thickness: float = 1.0,
-                 k_res: float = 1e-6, constrained=None):
+                 k_res: float = 1e-6, constrained=None, modulus=None):
         self.grads, self.measure = mesh_geometry(mesh)
         self.mesh = mesh
         self.dim = d = mesh.dim
@@ -176,6 +181,10 @@ class Elasticity:
                                  " those of the solid itself)")
             self.plane = None
         self.lam, self.mu = lame_parameters(self.E, self.nu, self.plane)
+        self.modulus = np.ones(mesh.n_cells) if modulus is None else np.array(self._vector("modulus", modulus, mesh.n_cells))
+        if not (np.all(np.isfinite(self.modulus)) and np.all(self.modulus > 0)):
+            raise ValueError("modulus must be positive and finite in every cell")
+        self.modulus.flags.writeable = False
 
         n_dofs = d * mesh.n_nodes
         con = np.zeros(0, dtype=np.int64) if constrained is None else _index_array("constrained", constrained, n_dofs)
@@ -260,11 +269,12 @@ class Elasticity:
         return kernels.cell_degradation(alpha, self.mesh.cells, self.k_res)
 
     def _coef(self, alpha, cell_factor):
+        """Each cell's stiffness factor: its degradation (or ``cell_factor``) times its modulus."""
         if cell_factor is None:
-            return self.degradation(alpha)
+            return self.degradation(alpha) * self.modulus
         if alpha is not None:
             raise ValueError("give alpha or cell_factor, not both")
-        return self._vector("cell_factor", cell_factor, self.mesh.n_cells)
+        return self._vector("cell_factor", cell_factor, self.mesh.n_cells) * self.modulus
 
     # --- the linear system --------------------------------------------------------------------
     def matrix(self, alpha, *, cell_factor=None) -> sp.csr_matrix:
@@ -360,21 +370,21 @@ class Elasticity:
         return kernels.cell_strain(self.grads, self.mesh.cells, self._vector("u", u, self.n_dofs))
 
     def stress(self, u) -> np.ndarray:
-        """Undamaged cell stresses ``C e(u)`` in Voigt order, 2D ``(s_xx, s_yy, s_xy)`` (in plane;
+        """Undamaged cell stresses ``C_e e(u)`` in Voigt order, 2D ``(s_xx, s_yy, s_xy)`` (in plane;
         plane strain's ``s_zz = lam (e_xx + e_yy)`` is not returned), 3D
-        ``(s_xx, s_yy, s_zz, s_yz, s_xz, s_xy)``; shape (n_cells, 3 or 6), units of ``E``.
-        The damaged stress of cell ``e`` is ``gbar_e`` times this."""
+        ``(s_xx, s_yy, s_zz, s_yz, s_xz, s_xy)``; shape (n_cells, 3 or 6), units of ``E``
+        (each cell's own modulus). The damaged stress of cell ``e`` is ``gbar_e`` times this."""
         e = self.strain(u)
         d = self.dim
         s = 2.0 * self.mu * e
         s[:, :d] += self.lam * e[:, :d].sum(axis=1, keepdims=True)
-        return s
+        return s * self.modulus[:, None]
 
     def strain_energy_density(self, u) -> np.ndarray:
-        """Undamaged strain-energy density ``psi_e = 1/2 e:C:e`` of each cell, shape (n_cells,)
-        (energy per volume, units of ``E``)."""
+        """Undamaged strain-energy density ``psi_e = 1/2 e:C_e:e`` of each cell (its own modulus),
+        shape (n_cells,) (energy per volume, units of ``E``)."""
         return kernels.strain_energy_density(self.grads, self.mesh.cells, self._vector("u", u, self.n_dofs),
-                                             self.lam, self.mu)
+                                             self.lam, self.mu) * self.modulus
 
     def nodal_energy(self, u) -> np.ndarray:
         """The nodal energy ``c_i = T sum_{e ni i} |e| psi_e / (d + 1)``, shape (n_nodes,) (energy):

@@ -65,14 +65,19 @@ def build_model(scene, mesh):
     m = scene.model
     loads = Loads(mesh, scene.load, m.thickness, scene.source)
     fixed = []
-    for region in m.undamaged:
+    modulus = np.ones(mesh.n_cells)
+    regions = [("model.undamaged", name) for name in m.undamaged] + [(f"model.buffers.{name}", name)
+                                                                      for name, _ in m.buffers]
+    for key, region in regions:
         if region not in mesh.cell_groups:
-            raise SceneError(scene.source, "model.undamaged", f'= "{region}": no region of that name in the mesh'
+            raise SceneError(scene.source, key, f'= "{region}": no region of that name in the mesh'
                              f" (its regions: {', '.join(sorted(mesh.cell_groups)) or '-'})")
-        fixed.append(mesh.nodes_of(region))
+        fixed.append(mesh.nodes_of(region))     # buffers are not damageable either
+    for region, E_b in m.buffers:
+        modulus[mesh.cell_groups[region]] = E_b / m.E
     fixed_nodes = np.unique(np.concatenate(fixed)) if fixed else None
     elasticity = Elasticity(mesh, m.E, m.nu, plane=m.plane if m.dim == 2 else "stress", thickness=m.thickness,
-                            k_res=m.k_res, constrained=loads.constrained)
+                            k_res=m.k_res, constrained=loads.constrained, modulus=modulus)
     damage = DamageOperator(mesh, m.Gc, m.eps, at=m.at, thickness=m.thickness, fixed_nodes=fixed_nodes)
     K = elasticity.matrix(np.zeros(mesh.n_nodes))
     kind = scene.solver.linear
@@ -162,6 +167,7 @@ class FemKind(EvolutionKind):
         m, g = scene.model, scene.geometry
         return {"dim": m.dim, "E": m.E, "nu": m.nu, "Gc": m.Gc, "eps": m.eps, "k_res": m.k_res, "at": m.at,
                 "plane": m.plane, "thickness": m.thickness, "undamaged": ",".join(m.undamaged),
+                "buffers": ",".join(f"{name}:{E_b:g}" for name, E_b in m.buffers),
                 "geometry": g.kind, **({"file": g.file} if g.file else {}), "h": scene.mesh.h,
                 "h_coarse": scene.mesh.h_coarse, "t_max": scene.load.t_max, "steps": scene.load.steps,
                 "loaded": ",".join(scene.load.loaded),

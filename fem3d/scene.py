@@ -17,6 +17,7 @@ the whole slab, not per unit thickness. ::
     plane = "stress"        # 2D only: "stress" or "strain"
     thickness = 100.0       # 2D only
     undamaged = ["gray"]    # regions (cell groups) where alpha is held at 0
+    buffers = {top = 25.85} # regions of their own Young's modulus, alpha held at 0 there
 
     [geometry]
     kind = "lpanel"         # "lpanel", "three_point_bending" or "file" (with file = "x.msh")
@@ -79,6 +80,9 @@ class FemModelParameters:
         2D slab thickness (1 in 3D).
     undamaged : tuple of str
         Regions where the damage is held at 0.
+    buffers : tuple of (str, float)
+        Buffer layers: regions of their own Young's modulus ``E_b`` (the same nu), where the
+        damage is also held at 0 (dissertation section 4.3).
     """
 
     dim: int
@@ -91,6 +95,7 @@ class FemModelParameters:
     plane: str
     thickness: float
     undamaged: tuple
+    buffers: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -204,7 +209,7 @@ def _path(table, key):
 
 def _model(source, data):
     model = Table(source, "model", data["model"], ("kind", "dim", "E", "nu", "Gc", "eps", "k_res", "at", "plane",
-                                                   "thickness", "undamaged"))
+                                                   "thickness", "undamaged", "buffers"))
     dim = model.integer("dim", minimum=2)
     if dim not in (2, 3):
         model._fail("dim", dim, "must be 2 or 3")
@@ -224,7 +229,17 @@ def _model(source, data):
         thickness = model.number("thickness", minimum=0, default=1.0)
     return FemModelParameters(dim=dim, E=model.number("E", minimum=0), nu=nu, Gc=model.number("Gc", minimum=0),
                               eps=model.number("eps", minimum=0), k_res=model.number("k_res", minimum=0, default=1e-6),
-                              at=at, plane=plane, thickness=thickness, undamaged=_names(model, "undamaged"))
+                              at=at, plane=plane, thickness=thickness, undamaged=_names(model, "undamaged"),
+                              buffers=_buffers(model))
+
+
+def _buffers(model):
+    """``buffers = {region = E_b, ...}``: each region's Young's modulus."""
+    if not model.has("buffers"):
+        return ()
+    table = Table(model.source, "model.buffers", model.data["buffers"], tuple(model.data["buffers"])
+                  if isinstance(model.data["buffers"], dict) else ())
+    return tuple((name, table.number(name, minimum=0)) for name in table.data)
 
 
 def _geometry(source, data, dim):

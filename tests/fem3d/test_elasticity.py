@@ -373,6 +373,37 @@ def test_uniaxial_stiffness(dim, plane):
     np.testing.assert_allclose(e[:, 0], delta / lx, rtol=1e-11)
 
 
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_softer_region_in_series_adds_its_compliance(dim):
+    """A buffer-like region (modulus r E, the same nu = 0) over the left half of a bar pulled by
+    ``delta``: uniform uniaxial stress, exact in P1, ``F = E A delta / (L/2 / r + L/2)``, the
+    strain ``r`` times larger on the soft side, and the energy ``F delta / 2``."""
+    lx, ly, lz, delta, r = 2.0, 0.5, 0.4, 1e-3, 1e-2
+    mesh = tri_mesh(8, 3, lx, ly) if dim == 2 else tet_mesh((4, 2, 2), (lx, ly, lz))
+    area = ly if dim == 2 else ly * lz
+    left = np.flatnonzero(mesh.points[:, 0] == 0.0)
+    right = np.flatnonzero(mesh.points[:, 0] == lx)
+    origin = int(np.flatnonzero(np.all(mesh.points == 0.0, axis=1))[0])
+    fix = [origin * dim + a for a in range(1, dim)]
+    if dim == 3:
+        top = int(np.flatnonzero(np.all(mesh.points == [0.0, ly, 0.0], axis=1))[0])
+        fix.append(top * 3 + 2)
+    con = np.unique(np.concatenate([left * dim, right * dim, fix]))
+    soft = mesh.points[mesh.cells].mean(axis=1)[:, 0] < lx / 2
+    el = Elasticity(mesh, E, 0.0, k_res=0.0, constrained=con, modulus=np.where(soft, r, 1.0))
+    u_d = np.where(np.isin(con, right * dim), delta, 0.0)
+    alpha = np.zeros(mesh.n_nodes)
+    u = solve(el, alpha, u_d)
+    force = el.reactions(alpha, u)[np.isin(con, right * dim)].sum()
+    assert force == pytest.approx(E * area * delta / (lx / 2 / r + lx / 2), rel=1e-10)
+    e = el.strain(u)[:, 0]
+    np.testing.assert_allclose(e[soft], force / (area * E * r), rtol=1e-9)
+    np.testing.assert_allclose(e[~soft], force / (area * E), rtol=1e-9)
+    np.testing.assert_allclose(el.stress(u)[:, 0], force / area, rtol=1e-9)
+    assert el.elastic_energy(u, alpha) == pytest.approx(force * delta / 2, rel=1e-10)
+    assert el.nodal_energy(u).sum() == pytest.approx(force * delta / 2, rel=1e-10)
+
+
 @pytest.mark.parametrize("dim,plane", [(2, "stress"), (3, None)], ids=["2d", "3d"])
 def test_reaction_is_energy_derivative(dim, plane):
     """With a damaged field, the left end clamped and the right end moved by ``t v``:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from tests.helpers import CASES, load_case
@@ -77,3 +78,41 @@ def test_the_case_files_are_valid(name):
     assert scene.kind == "fem"
     if scene.reference:
         assert (CASES / "winkler_lpanel_series_a.csv").samefile(scene.reference)
+
+
+def test_buffers_soften_their_region_and_keep_it_sound():
+    # the region near the load as a buffer 1000 times softer than the panel: its cells carry
+    # E_b / E, its nodes are held sound, and the panel gets more compliant
+    from fem3d.kind import build_mesh, build_model
+
+    scene = parse_scene(SCENE.replace('undamaged = ["gray"]', 'undamaged = ["gray"]\nbuffers = {near_load = 1.0}'),
+                        source="x.toml")
+    assert scene.model.buffers == (("near_load", 1.0),)
+    mesh = build_mesh(scene)
+    model = build_model(scene, mesh)
+    soft = mesh.cell_groups["near_load"]
+    assert np.all(model.elasticity.modulus[soft] == 1e-3) and np.sum(model.elasticity.modulus != 1.0) == soft.size
+    assert np.all(np.isin(mesh.nodes_of("near_load"), model.damage.fixed_nodes))
+    plain = build_model(parse_scene(SCENE, source="x.toml"), mesh)
+    alpha = np.zeros(mesh.n_nodes)
+    forces = [m.forces(m.solve_u(alpha, 0.1, None, 1e-10), alpha, 0.1)["load"] for m in (model, plain)]
+    assert 0.0 < forces[0] < 0.5 * forces[1]
+
+
+@pytest.mark.parametrize("value, message", [
+    ("{near_load = -1.0}", "model.buffers.near_load = -1.0: must be a positive number"),
+    ("2.0", "model.buffers = 2.0: must be a table [model.buffers]"),
+])
+def test_bad_buffers_name_the_key(value, message):
+    with pytest.raises(SceneError) as err:
+        parse_scene(SCENE.replace('undamaged = ["gray"]', f"buffers = {value}"), source="x.toml")
+    assert message in str(err.value)
+
+
+def test_a_buffer_region_missing_from_the_mesh_is_refused():
+    from fem3d.kind import build_mesh, build_model
+
+    scene = parse_scene(SCENE.replace('undamaged = ["gray"]', "buffers = {top_layer = 1.0}"), source="x.toml")
+    with pytest.raises(SceneError) as err:
+        build_model(scene, build_mesh(scene))
+    assert 'model.buffers.top_layer = "top_layer": no region of that name in the mesh' in str(err.value)
