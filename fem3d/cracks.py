@@ -5,7 +5,9 @@ L-panel (Table 3.2); the reading adopted here (``docs/cases.md#l-shaped-panel``)
 the set of nodes with ``alpha >= 0.9``; its tip is the broken node farthest from the point the
 crack starts from (the re-entrant corner), its length the distance between them and its angle
 that of the chord. The crack length from the surface energy (``S / (Gc T)``) is the other
-measure, and it counts the damage's whole profile.
+measure, and it counts the damage's whole profile. A crack that curves has a chord flatter
+than its start: :func:`initial_direction` reads the direction it leaves the corner in (the
+median direction of the broken nodes near it).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import math
 
 import numpy as np
 
-__all__ = ["BROKEN", "crack_tip", "crack_through_depth", "holes_reached"]
+__all__ = ["BROKEN", "crack_tip", "initial_direction", "crack_through_depth", "holes_reached"]
 
 #: Damage at which a node counts as broken (the dissertation draws cracks as 0.9 <= alpha <= 1).
 BROKEN = 0.9
@@ -50,6 +52,37 @@ def crack_tip(points, alpha, origin, threshold=BROKEN):
     k = broken[int(np.argmax(distance))]
     d = xy[k] - origin
     return xy[k], float(np.linalg.norm(d)), math.degrees(math.atan2(d[1], d[0]))
+
+
+def initial_direction(points, alpha, origin, radius, threshold=BROKEN):
+    """The direction a crack leaves ``origin`` in: the median direction of the broken nodes
+    within ``radius`` of it.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n, dim)
+    alpha : ndarray, shape (n,)
+    origin : sequence of float, length 2
+        Where the crack starts (only x, y are compared).
+    radius : float
+        How far from ``origin`` the start is read (a few eps: beyond the corner's own
+        damage, before the path bends).
+    threshold : float
+
+    Returns
+    -------
+    float
+        Degrees counterclockwise from +x of the median of ``atan2`` over those nodes, taken
+        about the direction of their mean so that it does not wrap; NaN if there are none.
+    """
+    origin = np.asarray(origin, dtype=float)
+    d = np.asarray(points)[:, : origin.size][np.asarray(alpha) >= threshold] - origin
+    d = d[np.linalg.norm(d, axis=1) <= radius]
+    if len(d) == 0:
+        return math.nan
+    mean = math.atan2(d[:, 1].sum(), d[:, 0].sum())
+    turn = np.angle(np.exp(1j * (np.arctan2(d[:, 1], d[:, 0]) - mean)))
+    return math.degrees(mean + float(np.median(turn)))
 
 
 def crack_through_depth(points, alpha, origin, depths, width, threshold=BROKEN):
