@@ -33,6 +33,13 @@ def test_product_and_zip_generate_every_combination_in_order(tmp_path):
     assert zipped.kind == "exact1d" and zipped.keys == ("model.lam", "model.toughness")
 
 
+def test_bare_dotted_keys_are_the_quoted_ones(tmp_path):
+    quoted = load_plan(_plan(tmp_path, '[vary]\n"model.lam" = [3.0, 4.0]\n[set]\n"load.steps" = 10\n', "a.toml"))
+    bare = load_plan(_plan(tmp_path, '[vary]\nmodel.lam = [3.0, 4.0]\n[set]\nload.steps = 10\n', "b.toml"))
+    assert [r.overrides for r in bare.runs] == [r.overrides for r in quoted.runs]
+    assert [r.name for r in bare.runs] == [r.name for r in quoted.runs]
+
+
 def test_set_and_repeat_add_fixed_keys_and_seeds(tmp_path):
     base = CASES / "cantilever_6e6.toml"
     path = tmp_path / "scan.toml"

@@ -56,11 +56,23 @@ class _TopLevel(Table):
 
 
 def _table(source, data, name):
-    """A ``[name]`` table of dotted scene keys (any key allowed: the scenes check them)."""
+    """A ``[name]`` table of dotted scene keys (any key allowed: the scenes check them).
+
+    Quoted (``"model.lam" = ...``) and bare dotted keys (``model.lam = ...``, which TOML reads
+    as nested tables) are the same: nested tables are flattened to dotted keys.
+    """
     value = data.get(name, {})
     if not isinstance(value, dict):
         raise ScanError(source, name, f"= {show(value)}: must be a table [{name}] of dotted scene keys")
-    return value
+
+    def flatten(table, prefix):
+        for key, item in table.items():
+            if isinstance(item, dict):
+                yield from flatten(item, f"{prefix}{key}.")
+            else:
+                yield f"{prefix}{key}", item
+
+    return dict(flatten(value, ""))
 
 
 @dataclass(frozen=True)
@@ -152,7 +164,7 @@ def _value_list(source, key, values):
     return values
 
 
-def parse_plan(text, source="<string>", validate=True):
+def parse_plan(text, source="<string>"):
     """Validate scan text and build its runs.
 
     Parameters
@@ -161,9 +173,6 @@ def parse_plan(text, source="<string>", validate=True):
         TOML text of the scan file.
     source : str
         The scan file's path (``base`` is relative to its folder).
-    validate : bool
-        Build and validate every run's scene (the default; :func:`thinfilm.scan.collect`
-        only needs the names).
 
     Returns
     -------
@@ -175,14 +184,14 @@ def parse_plan(text, source="<string>", validate=True):
         On any problem in the scan file or in any generated scene, in one line.
     """
     try:
-        return _parse(text, source, validate)
+        return _parse(text, source)
     except ScanError:
         raise
     except SceneError as err:  # from the table getters: the same line, as a scan's error
         raise ScanError(err.source, err.key, err.detail) from None
 
 
-def _parse(text, source, validate):
+def _parse(text, source):
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
@@ -242,7 +251,7 @@ def _parse(text, source, validate):
             runs.append(RunSpec(name=name, index=len(runs), values=values, overrides=overrides))
 
     kind = None
-    for spec in runs if validate else runs[:1]:
+    for spec in runs:
         try:
             scene = load_scene(base, overrides=spec.overrides)
         except SceneError as err:
@@ -254,7 +263,7 @@ def _parse(text, source, validate):
                     keys=keys + ((seed_key,) if seed_key else ()), seed=seed_key, metrics=tuple(metrics), runs=tuple(runs))
 
 
-def load_plan(path, validate=True):
+def load_plan(path):
     """Read and validate a scan file (:func:`parse_plan`).
 
     Raises
@@ -263,4 +272,4 @@ def load_plan(path, validate=True):
         If the file cannot be read or the scan is not valid.
     """
     text = read_text(path, "scan file", ScanError)
-    return parse_plan(text, source=str(path), validate=validate)
+    return parse_plan(text, source=str(path))
