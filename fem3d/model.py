@@ -7,9 +7,11 @@ binds the mesh, the elasticity and damage operators (:mod:`fem3d.elasticity`,
 :mod:`fem3d.damage`), the loads and a linear solver into the
 :class:`thinfilm.engine.protocol.FractureModel` protocol.
 
-The elastic energy the engine sees is the bulk potential ``P(u, alpha) - t f.u`` (the work of
-the forces subtracted), which is homogeneous of degree 2 in ``(t, u)``: what backtracking
-needs. The reactions are read from the residual ``K u - t f`` on the constrained dofs, the
+The elastic energy the engine sees is the bulk potential ``P(u, alpha) - f(t).u`` (the work
+of the forces subtracted). Under proportional loads it is homogeneous of degree 2 in
+``(t, u)``, what backtracking's (3.17) needs; with a constant part (``[load.constant]``, held
+from step 0 on) the minimizer is affine in t and :meth:`FemModel.elastic_along_load` gives
+the exact energy of a state moved to another load (docs/model.md#constant-loads). The reactions are read from the residual ``K u - t f`` on the constrained dofs, the
 work-conjugate of the prescribed displacements, not from an average of stresses.
 """
 
@@ -24,7 +26,7 @@ __all__ = ["Loads", "FemModel"]
 
 
 class Loads:
-    """Boundary conditions and loads on a mesh, all proportional to ``t``.
+    """Boundary conditions and loads on a mesh: a part proportional to ``t`` and a constant part.
 
     Parameters
     ----------
@@ -43,6 +45,12 @@ class Loads:
         Their prescribed values at ``t = 1``.
     unit_force : ndarray, shape (n_dofs,)
         The load vector at ``t = 1`` (tractions and forces).
+    constant_values : ndarray, shape (k,)
+        The constant part of the prescribed values (``[load.constant] displacement``).
+    constant_force : ndarray, shape (n_dofs,)
+        The constant load vector (``[load.constant] traction`` and ``force``).
+    proportional : bool
+        No constant part: the values at ``t`` are ``t`` times the unit ones.
     loaded : dict of str -> (dofs, direction)
         For each group with a non-zero prescribed displacement: the positions of its dofs in
         ``constrained`` and the unit direction of its displacement, shape (k_g,) each.
@@ -50,7 +58,7 @@ class Loads:
 
     def __init__(self, mesh: Mesh, loading, thickness=1.0, source="<string>"):
         d = mesh.dim
-        values = {}
+        values, constant = {}, {}
         for group in loading.fixed:
             for node in self._nodes(mesh, group, "load.fixed", source):
                 for c in range(d):
@@ -62,8 +70,13 @@ class Loads:
                 values[node * d + c] = value
             if value != 0.0:
                 directions.setdefault(group, (nodes, np.zeros(d)))[1][c] = value
+        for group, c, value in getattr(loading, "constant_displacement", ()):
+            for node in self._nodes(mesh, group, f"load.constant.displacement.{group}", source):
+                constant[node * d + c] = value
+                values.setdefault(node * d + c, 0.0)
         self.constrained = np.array(sorted(values), dtype=np.int64)
         self.unit_values = np.array([values[k] for k in self.constrained], dtype=np.float64)
+        self.constant_values = np.array([constant.get(k, 0.0) for k in self.constrained], dtype=np.float64)
         position = {dof: i for i, dof in enumerate(self.constrained)}
         self.loaded = {}
         for group, (nodes, vector) in directions.items():
@@ -73,21 +86,38 @@ class Loads:
             weights = [unit[c] for node in nodes for c in range(d) if unit[c] != 0.0]
             self.loaded[group] = (np.array(dofs, dtype=np.int64), np.array(weights))
         self.displacement_scale = {group: float(np.linalg.norm(v)) for group, (_, v) in directions.items()}
+        self.unit_force = self._force(mesh, loading.traction, loading.force, thickness, "load", source)
+        self.constant_force = self._force(mesh, getattr(loading, "constant_traction", ()),
+                                          getattr(loading, "constant_force", ()), thickness, "load.constant", source)
+        #: True when every load is t times a fixed one (no constant part).
+        self.proportional = not (self.constant_values.any() or self.constant_force.any())
+
+    def values_at(self, t):
+        """The prescribed values of :attr:`constrained` at load ``t``, shape (k,)."""
+        return self.constant_values + t * self.unit_values if not self.proportional else t * self.unit_values
+
+    def force_at(self, t):
+        """The load vector at load ``t``, shape (n_dofs,)."""
+        return self.constant_force + t * self.unit_force if not self.proportional else t * self.unit_force
+
+    def _force(self, mesh, traction, force, thickness, name, source):
+        """The load vector of tractions on boundaries and forces shared by groups' nodes."""
+        d = mesh.dim
         f = np.zeros(mesh.n_nodes * d)
-        for group, vector in loading.traction:
+        for group, vector in traction:
             facets = mesh.facet_groups.get(group)
             if facets is None:
-                raise SceneError(source, f"load.traction.{group}", f"no boundary {group!r} in the mesh (its"
+                raise SceneError(source, f"{name}.traction.{group}", f"no boundary {group!r} in the mesh (its"
                                  f" boundaries: {', '.join(sorted(mesh.facet_groups)) or '-'})")
             area = _facet_measures(mesh.points, facets) * (thickness if d == 2 else 1.0)
             for c in range(d):
                 # P1 facet load: each vertex gets 1/d of the facet's share (exact for a constant traction).
                 np.add.at(f, facets * d + c, np.repeat(area[:, None] / d, d, axis=1) * vector[c])
-        for group, vector in loading.force:
-            nodes = self._nodes(mesh, group, f"load.force.{group}", source)
+        for group, vector in force:
+            nodes = self._nodes(mesh, group, f"{name}.force.{group}", source)
             for c in range(d):
                 f[nodes * d + c] += vector[c] / len(nodes)
-        self.unit_force = f
+        return f
 
     @staticmethod
     def _nodes(mesh, group, key, source):
@@ -126,15 +156,15 @@ class FemModel:
     n_alpha : int
         One damage unknown per node.
     proportional : bool
-        True: every load is ``t`` times a fixed one.
+        True: every load is ``t`` times a fixed one; else the loads have a constant part, and
+        :meth:`elastic_along_load` gives backtracking the energy of a state moved along it.
     toughness : float
         ``Gc`` times the thickness in 2D (the energy of a unit crack length), ``Gc`` in 3D.
     """
 
-    proportional = True
-
     def __init__(self, mesh, elasticity, damage, loads, linear_solver):
         self.mesh, self.elasticity, self.damage, self.loads = mesh, elasticity, damage, loads
+        self.proportional = loads.proportional
         self.linear_solver = linear_solver
         self.n_alpha = mesh.n_nodes
         self.toughness = float(damage.Gc * damage.thickness)
@@ -144,9 +174,8 @@ class FemModel:
         """The displacement minimizing the energy at fixed ``alpha``, shape ``(n_dofs,)``."""
         el = self.elasticity
         self.linear_solver.update(el.matrix(alpha))
-        u_constrained = t * self.loads.unit_values
-        f = t * self.loads.unit_force
-        rhs = el.rhs(alpha, u_constrained, f)
+        u_constrained = self.loads.values_at(t)
+        rhs = el.rhs(alpha, u_constrained, self.loads.force_at(t))
         x0 = None if u0 is None else np.asarray(u0)[el.free]
         u_free, self.last_solve_info = self.linear_solver.solve(rhs, x0=x0, rtol=rtol)
         return el.expand(u_free, u_constrained)
@@ -155,10 +184,23 @@ class FemModel:
         return self.damage.problem(self.elasticity.nodal_energy(u))
 
     def energies(self, u, alpha, t):
-        work = t * float(self.loads.unit_force @ u)
+        work = float(self.loads.force_at(t) @ u)
         return self.elasticity.elastic_energy(u, alpha) - work, self.damage.surface_energy(alpha)
+
+    def elastic_along_load(self, u, alpha, t):
+        """``(B, X, P)``: the state moved to the load ``s t`` along its solution line,
+        ``u_c + s (u - u_c)`` (``u_c``: the constant loads alone at this damage, one linear
+        solve), has the elastic energy ``B + s X + s^2 P`` (exactly: it is a quadratic in s,
+        read off at s = 0, 1 and -1). :class:`thinfilm.engine.protocol.AffineLoad`."""
+        u_c = self.solve_u(alpha, 0.0, None, None)
+
+        def energy(s):
+            return self.energies(u_c + s * (u - u_c), alpha, s * t)[0]
+
+        B, above, below = energy(0.0), energy(1.0), energy(-1.0)
+        return B, 0.5 * (above - below), 0.5 * (above + below) - B
 
     def forces(self, u, alpha, t):
         """The reaction along the prescribed motion of each loaded group: ``{group: force}``."""
-        reactions = self.elasticity.reactions(alpha, u, t * self.loads.unit_force)
+        reactions = self.elasticity.reactions(alpha, u, self.loads.force_at(t))
         return {group: float(weights @ reactions[dofs]) for group, (dofs, weights) in self.loads.loaded.items()}

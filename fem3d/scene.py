@@ -36,6 +36,8 @@ the whole slab, not per unit thickness. ::
     y = -1.0
     [load.force.load_point] # total force t * (x, y), shared by the group's nodes
     y = -1.0
+    [load.constant.force.side]  # held at this value from step 0 on (also displacement, traction)
+    x = 10000.0
 
 The reference is ``docs/scenes.md``; every check raises :class:`thinfilm.scene.SceneError`.
 """
@@ -134,6 +136,9 @@ class Loading:
         Traction t * vector (force per area; per length times thickness in 2D) on a boundary.
     force : tuple of (group, vector)
         Total force t * vector, shared equally by the group's nodes.
+    constant_displacement, constant_traction, constant_force : tuple
+        ``[load.constant]``: the same kinds of load, held at their full value at every step
+        (from step 0 on) while the others grow with t.
     """
 
     t_max: float
@@ -143,7 +148,15 @@ class Loading:
     displacement: tuple = ()
     traction: tuple = ()
     force: tuple = ()
-    proportional = True
+    constant_displacement: tuple = ()
+    constant_traction: tuple = ()
+    constant_force: tuple = ()
+
+    @property
+    def proportional(self):
+        """Whether every load is t times a fixed one (no ``[load.constant]`` part)."""
+        return not (any(v != 0.0 for _, _, v in self.constant_displacement)
+                    or any(any(c != 0.0 for c in v) for _, v in self.constant_traction + self.constant_force))
 
     @property
     def loaded(self):
@@ -280,8 +293,32 @@ def _vector(table, key, dim):
     return tuple(sub.number(c, default=0.0) if sub.has(c) else 0.0 for c in COMPONENTS[:dim])
 
 
+def _load_parts(source, name, load, dim):
+    """The ``displacement``, ``traction`` and ``force`` tables of ``[name]``: a list of
+    ``(group, component, value)`` and ``{"traction": ..., "force": ...}`` of ``(group, vector)``."""
+    displacement = []
+    if load.has("displacement"):
+        table = Table(source, f"{name}.displacement", load.data["displacement"], tuple(load.data["displacement"]))
+        for group in table.data:
+            sub = Table(source, f"{name}.displacement.{group}", table.data[group], COMPONENTS[:dim])
+            if not sub.data:
+                table._fail(group, table.data[group], f"must give at least one component ({', '.join(COMPONENTS[:dim])})")
+            for c, component in enumerate(COMPONENTS[:dim]):
+                if sub.has(component):
+                    displacement.append((group, c, sub.number(component)))
+    vectors = {}
+    for key in ("traction", "force"):
+        items = []
+        if load.has(key):
+            table = Table(source, f"{name}.{key}", load.data[key], tuple(load.data[key]))
+            items = [(group, _vector(table, group, dim)) for group in table.data]
+        vectors[key] = tuple(items)
+    return displacement, vectors
+
+
 def _loading(source, data, dim):
-    load = Table(source, "load", data["load"], ("t_max", "steps", "t", "fixed", "displacement", "traction", "force"))
+    load = Table(source, "load", data["load"], ("t_max", "steps", "t", "fixed", "displacement", "traction", "force",
+                                                "constant"))
     values = None
     if load.has("t"):
         values = _numbers(load, "t")
@@ -294,25 +331,15 @@ def _loading(source, data, dim):
         t_max, steps = values[-1], len(values) - 1
     else:
         t_max, steps = load.number("t_max", minimum=0), load.integer("steps", minimum=2)
-    displacement = []
-    if load.has("displacement"):
-        table = Table(source, "load.displacement", load.data["displacement"], tuple(load.data["displacement"]))
-        for group in table.data:
-            sub = Table(source, f"load.displacement.{group}", table.data[group], COMPONENTS[:dim])
-            if not sub.data:
-                table._fail(group, table.data[group], f"must give at least one component ({', '.join(COMPONENTS[:dim])})")
-            for c, name in enumerate(COMPONENTS[:dim]):
-                if sub.has(name):
-                    displacement.append((group, c, sub.number(name)))
-    vectors = {}
-    for key in ("traction", "force"):
-        items = []
-        if load.has(key):
-            table = Table(source, f"load.{key}", load.data[key], tuple(load.data[key]))
-            items = [(group, _vector(table, group, dim)) for group in table.data]
-        vectors[key] = tuple(items)
+    displacement, vectors = _load_parts(source, "load", load, dim)
+    constant = {}
+    if load.has("constant"):
+        table = Table(source, "load.constant", load.data["constant"], ("displacement", "traction", "force"))
+        parts, more = _load_parts(source, "load.constant", table, dim)
+        constant = {"constant_displacement": tuple(parts), "constant_traction": more["traction"],
+                    "constant_force": more["force"]}
     loading = Loading(t_max=t_max, steps=steps, values=values, fixed=_names(load, "fixed"),
-                      displacement=tuple(displacement), **vectors)
+                      displacement=tuple(displacement), **vectors, **constant)
     if not (loading.fixed or loading.displacement):
         raise SceneError(source, "load.fixed", "give load.fixed or load.displacement: without any prescribed"
                          " displacement the solid is free to move")

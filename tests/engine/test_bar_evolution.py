@@ -308,3 +308,28 @@ def test_energy_never_increases_and_damage_never_heals(bar, run, request):
         _, plain_states = request.getfixturevalue("plain")
         f = first_damaged(plain_states)
         assert first_damaged(states) == f and np.argmax(states[f].alpha) == bar.m
+
+
+class _Moved:
+    """A stand-in for a model with a constant part of the load: only what the test reads."""
+
+    proportional = False
+
+    def __init__(self, parts):
+        self.parts = parts
+
+    def elastic_along_load(self, u, alpha, t):
+        return self.parts
+
+
+def test_backtracking_with_a_constant_load_counts_the_cross_term_unless_told_otherwise():
+    # Step k at t_k = 1 has total energy 1.0; the current state at t = 2 has B = 0.2,
+    # X = -0.6, P = 0.5 (moved to t_k: s = 1/2), S = 0.7: exactly 0.2 - 0.3 + 0.125 + 0.7 =
+    # 0.725 < 1.0, a backtrack; without the cross term (3.18) 1.025 > 1.0, none.
+    from thinfilm.engine.records import State
+
+    step_k = State(1.0, None, None, 0.4, 0.6)
+    for test, expected in (("exact", True), ("dissertation", False)):
+        engine = Engine(_Moved((0.2, -0.6, 0.5)), backtrack=BacktrackOptions(kind="standard", test=test))
+        moved = engine._moved(None, None, 2.0, None)
+        assert engine._beats(step_k, 2.0, moved, 0.7) is expected

@@ -178,3 +178,49 @@ def test_slices_cover_the_section(level):
     assert sum(area(p) for p in polygons) == pytest.approx(1.0, rel=1e-5)
     centres = np.array([p.mean(axis=0) for p in polygons])
     np.testing.assert_allclose(means, centres @ np.array([1.0, 2.0]) + 3.0 * level, atol=1e-4)
+
+
+def chain_model(nx=20, force=3.0, nu=0.0):
+    """The strip one element tall with nu = 0: two bars in series, x = 0 .. L/2 .. L, the left
+    end held, the right end pulled by u_x = t, a constant force F along x on the middle nodes."""
+    mesh = strip_mesh(nx, 1)
+    middle = np.flatnonzero(np.isclose(mesh.points[:, 0], L / 2))
+    mesh = Mesh(mesh.points, mesh.cells, facet_groups=mesh.facet_groups,
+                node_groups={**mesh.node_groups, "middle": middle})
+    loading = Loading(t_max=1.0, steps=2, fixed=("pin",), displacement=(("left", 0, 0.0), ("right", 0, 1.0)),
+                      constant_force=(("middle", (force, 0.0)),))
+    loads = Loads(mesh, loading, T)
+    elasticity = Elasticity(mesh, E, nu, plane="stress", thickness=T, k_res=0.0, constrained=loads.constrained)
+    damage = DamageOperator(mesh, GC, EPS, at=1, thickness=T)
+    solver = make_solver("direct", elasticity.matrix(np.zeros(mesh.n_nodes)))
+    return FemModel(mesh, elasticity, damage, loads, solver)
+
+
+def test_a_constant_force_and_a_growing_displacement_in_closed_form():
+    # Each half is a spring k = E H T / (L/2). The middle moves by (F/k + t)/2; the energy at
+    # fixed (sound) damage is k t^2/4 - F t/2 - F^2/(4k): constant part B = -F^2/(4k), cross
+    # term X = -F t/2 (the constant force's reaction on the pulled end is -F/2), P = k t^2/4.
+    F, t = 3.0, 0.02
+    model = chain_model(force=F)
+    k = E * H * T / (L / 2)
+    alpha = np.zeros(model.n_alpha)
+    assert not model.proportional and not model.loads.proportional
+    u = model.solve_u(alpha, t, None, 1e-12)
+    middle = model.mesh.node_groups["middle"]
+    np.testing.assert_allclose(u[middle * 2], (F / k + t) / 2, rtol=1e-10)
+    elastic, _ = model.energies(u, alpha, t)
+    assert elastic == pytest.approx(k * t**2 / 4 - F * t / 2 - F**2 / (4 * k), rel=1e-10)
+    B, X, P = model.elastic_along_load(u, alpha, t)
+    assert (B, X, P) == pytest.approx((-F**2 / (4 * k), -F * t / 2, k * t**2 / 4), rel=1e-9)
+    # the state moved to t/2 along its line is the solution there (same damage: still sound)
+    s = 0.5
+    assert B + s * X + s**2 * P == pytest.approx(model.energies(model.solve_u(alpha, s * t, None, 1e-12), alpha,
+                                                                s * t)[0], rel=1e-10)
+    assert model.forces(u, alpha, t)["right"] == pytest.approx(k * t / 2 - F / 2, rel=1e-10)
+
+
+def test_constant_loads_run_with_backtracking():
+    model = chain_model(force=3.0)
+    t = np.linspace(0.0, 0.1, 6)
+    records, states = Engine(model, AltMinOptions(tol=1e-4), BacktrackOptions(kind="standard")).run(t)
+    assert len(states) == len(t) and states[0].u[model.mesh.node_groups["middle"] * 2].min() > 0.0

@@ -116,3 +116,25 @@ def test_a_buffer_region_missing_from_the_mesh_is_refused():
     with pytest.raises(SceneError) as err:
         build_model(scene, build_mesh(scene))
     assert 'model.buffers.top_layer = "top_layer": no region of that name in the mesh' in str(err.value)
+
+
+def test_a_constant_load_is_held_while_the_other_grows():
+    from fem3d.kind import build_mesh, build_model
+
+    text = SCENE + "[load.constant.force.load]\nx = 500.0\n"
+    scene = parse_scene(text, source="x.toml")
+    assert scene.load.constant_force == (("load", (500.0, 0.0)),) and not scene.load.proportional
+    assert parse_scene(SCENE, source="x.toml").load.proportional
+    model = build_model(scene, build_mesh(scene))
+    assert not model.proportional
+    f = model.loads.force_at(0.3)
+    assert f[0::2].sum() == pytest.approx(500.0) and f[1::2].sum() == 0.0
+    # backtracking is allowed with a constant part (the engine's exact test)
+    backtracking = parse_scene(text.replace("[load]", '[solver]\nbacktrack = "standard"\n[load]'), source="x.toml")
+    assert backtracking.solver.backtrack.kind == "standard" and backtracking.solver.backtrack.test == "exact"
+
+
+def test_a_bad_constant_load_names_the_key():
+    with pytest.raises(SceneError) as err:
+        parse_scene(SCENE + "[load.constant.pressure]\nx = 1.0\n", source="x.toml")
+    assert "load.constant.pressure: unknown key" in str(err.value)

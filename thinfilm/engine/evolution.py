@@ -39,7 +39,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from thinfilm.engine.options import AltMinOptions, BacktrackOptions, EngineOptions, SearchOptions, StabilityOptions
-from thinfilm.engine.protocol import DamageProjection, FractureModel, StabilityModes, TrialStates
+from thinfilm.engine.protocol import AffineLoad, DamageProjection, FractureModel, StabilityModes, TrialStates
 from thinfilm.engine.records import State, StepRecord
 from thinfilm.solvers.boxqp import solve_box_qp
 from thinfilm.solvers.errors import SolverError
@@ -90,9 +90,9 @@ class Engine:
 
     def __init__(self, model: FractureModel, altmin=AltMinOptions(), backtrack=BacktrackOptions(),
                  search=SearchOptions(), stability=StabilityOptions()):
-        if backtrack.kind != "none" and not model.proportional:
+        if backtrack.kind != "none" and not (model.proportional or isinstance(model, AffineLoad)):
             raise ValueError(f"backtrack.kind = {backtrack.kind!r}: backtracking needs a load proportional to t"
-                             " (this load is not); use kind = \"none\"")
+                             " or with a constant part (this load is neither); use kind = \"none\"")
         if search.enabled and not isinstance(model, TrialStates):
             raise ValueError("nucleation search asked for a model without trial_states")
         if stability.enabled and not isinstance(model, StabilityModes):
@@ -318,9 +318,21 @@ class Engine:
         candidate = alpha_star + (omega - 1.0) * update
         return np.minimum(candidate, 0.5 * (1.0 + alpha_star)), omega
 
-    def _beats(self, k_state, t, elastic, surface):
-        scale = (k_state.t / t) ** 2
-        return k_state.total - (scale * elastic + surface) >= self.backtrack.delta
+    def _moved(self, u, alpha, t, elastic):
+        """``(B, X, P)``: the current state moved to the load ``s t`` has the elastic energy
+        ``B + s X + s^2 P`` ((3.17): ``(0, 0, elastic)`` for a proportional load; with a
+        constant part, :class:`AffineLoad`, and the dissertation's (3.18) dropping ``X``)."""
+        if self.model.proportional:
+            return 0.0, 0.0, elastic
+        B, X, P = self.model.elastic_along_load(u, alpha, t)
+        return B, (0.0 if self.backtrack.test == "dissertation" else X), P
+
+    def _beats(self, k_state, t, moved, surface):
+        """Whether the current state, moved to step ``k``'s load, beats step ``k``'s energy."""
+        B, X, P = moved
+        s = k_state.t / t
+        energy = s ** 2 * P + surface if B == X == 0.0 else B + s * X + s ** 2 * P + surface
+        return k_state.total - energy >= self.backtrack.delta
 
     def _deep_check(self, step, t, u, alpha, elastic, surface, history):
         n_prev = len(history)
@@ -328,9 +340,12 @@ class Engine:
         ks = range(max(n_prev - scope, 0), n_prev)
         if self.backtrack.direction < 0:
             ks = reversed(ks)
+        moved = None
         for k in ks:
-            if history[k].t > 0 and self._beats(history[k], t, elastic, surface):
-                raise _Backtrack(k, alpha.copy(), u.copy(), t)
+            if history[k].t > 0:
+                moved = moved or self._moved(u, alpha, t, elastic)
+                if self._beats(history[k], t, moved, surface):
+                    raise _Backtrack(k, alpha.copy(), u.copy(), t)
 
     def _search(self, state, lower, record, step):
         """Nucleation search from a converged state; returns the best state found."""
@@ -487,9 +502,12 @@ class Engine:
                 if self.stability.enabled and t > 0:
                     state = self._leave_saddles(state, lower, record, i)
                 if self.backtrack.kind != "none":
+                    moved = None
                     for k in range(i):
-                        if states[k].t > 0 and self._beats(states[k], t, state.elastic, state.surface):
-                            raise _Backtrack(k, state.alpha.copy(), state.u.copy(), t)
+                        if states[k].t > 0:
+                            moved = moved or self._moved(state.u, state.alpha, t, state.elastic)
+                            if self._beats(states[k], t, moved, state.surface):
+                                raise _Backtrack(k, state.alpha.copy(), state.u.copy(), t)
             except _Backtrack as back:
                 total_backtracks += 1
                 self.work["backtracks"] += 1

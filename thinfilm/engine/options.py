@@ -113,10 +113,14 @@ class BacktrackOptions:
         Deep: how many earlier steps are scanned (``bs``; 0 = all).
     limit : int
         Total backtracks allowed in one evolution (a guard against cycling).
+    test : {"exact", "dissertation"}
+        With a constant part of the load (:class:`thinfilm.engine.protocol.AffineLoad`):
+        the moved state's energy evaluated exactly, or the dissertation's (3.18), which drops
+        the cross term between the constant and the proportional parts.
     """
 
     kind: str = option("none", "go back to an earlier load step that the current state beats (needs a load"
-                       " proportional to t)", rule=Rule("choice", choices=("none", "standard", "deep")))
+                       " proportional to t, or with a constant part)", rule=Rule("choice", choices=("none", "standard", "deep")))
     delta: float = option(1e-6, "energy gain that triggers a backtrack", rule=_POSITIVE, units="energy")
     interval: int = option(10, "deep: test every this many alternate-minimization iterations",
                            rule=Rule("integer", minimum=1))
@@ -125,6 +129,8 @@ class BacktrackOptions:
                                       phrase="must be 1 (oldest first) or -1 (newest first)"))
     scope: int = option(0, "deep: how many earlier steps are scanned (0: all)", rule=Rule("integer", minimum=0))
     limit: int = option(200, "backtracks allowed in one evolution", rule=Rule("integer", minimum=0))
+    test: str = option("exact", "with a constant part of the load: the moved state's energy exactly, or the"
+                       " dissertation's (3.18) without the cross term", rule=Rule("choice", choices=("exact", "dissertation")))
 
     def __post_init__(self):
         validate(self)

@@ -5,9 +5,10 @@ any object with the attributes and methods of :class:`FractureModel`; the finite
 film (:class:`thinfilm.plate.model.PlateModel`) is one, a finite-element solid another, and
 the test suite drives the engine with a 1D bar of its own (``tests/engine/bar.py``).
 
-Three hooks are optional, each a protocol of its own that the engine recognizes with
+Four hooks are optional, each a protocol of its own that the engine recognizes with
 ``isinstance`` (they are ``runtime_checkable``):
 
+* :class:`AffineLoad`, for backtracking under a load with a constant part (not proportional);
 * :class:`TrialStates`, needed by the nucleation search;
 * :class:`StabilityModes`, needed by the stability check;
 * :class:`DamageProjection`, for a model whose damage is restricted to a subset of fields
@@ -24,7 +25,7 @@ from typing import Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
-__all__ = ["FractureModel", "TrialStates", "StabilityModes", "DamageProjection"]
+__all__ = ["FractureModel", "AffineLoad", "TrialStates", "StabilityModes", "DamageProjection"]
 
 
 @runtime_checkable
@@ -56,6 +57,23 @@ class FractureModel(Protocol):
 
     def energies(self, u: np.ndarray, alpha: np.ndarray, t: float) -> tuple[float, float]:
         """Elastic energy ``P`` and surface energy ``S``."""
+
+
+@runtime_checkable
+class AffineLoad(Protocol):
+    """A load with a constant part, held at every step, and a part proportional to ``t``.
+
+    At fixed damage the minimizer is then affine in the load, ``u(t) = u_c + t u_1`` (``u_c``:
+    the constant loads alone), and a state moved to another load along that line has an
+    elastic energy quadratic in the ratio of the loads: what backtracking compares
+    (docs/model.md#constant-loads).
+    """
+
+    def elastic_along_load(self, u: np.ndarray, alpha: np.ndarray, t: float) -> tuple[float, float, float]:
+        """``(B, X, P)``: the state ``(u, alpha)`` at load ``t`` > 0 moved to the load ``s t``,
+        ``u_c + s (u - u_c)`` with ``u_c`` the constant loads' displacement at ``alpha``, has
+        the elastic energy ``B + s X + s^2 P`` (``B``: the constant loads' energy, ``P``: the
+        proportional part's, ``X``: their cross term)."""
 
 
 @runtime_checkable
