@@ -28,7 +28,7 @@ from thinfilm import kinds
 from thinfilm.engine.evolution import Engine
 from thinfilm.results.info import seconds
 from thinfilm.results.reader import Results
-from thinfilm.results.writer import ResultsWriter, write_summary
+from thinfilm.results.writer import ResultsWriter, ResumeError, write_summary
 
 __all__ = ["run", "Setup", "EvolutionKind", "RunInterrupted", "load_steps"]
 
@@ -221,10 +221,21 @@ class EvolutionKind:
         outdir.mkdir(parents=True, exist_ok=True)
         engine = Engine.from_options(setup.model, scene.solver)
         results = outdir / "results.h5"
-        writer = ResultsWriter(results, scene, self.parameters(scene), setup.discretization,
-                               components=setup.components, observables=setup.observables,
-                               constant=setup.constant, groups=setup.groups, resume=resume)
-        history = writer.history(all_alpha=scene.solver.backtrack.kind != "none") if resume else []
+        writer = None
+        try:
+            writer = ResultsWriter(results, scene, self.parameters(scene), setup.discretization,
+                                   components=setup.components, observables=setup.observables,
+                                   constant=setup.constant, groups=setup.groups, resume=resume)
+            history = writer.history(all_alpha=scene.solver.backtrack.kind != "none") if resume else []
+        except OSError as err:
+            # HDF5 is not crash-proof: a process killed in the middle of writing a step can
+            # leave a file whose metadata point past its end
+            if writer is not None:
+                writer.close()
+            if not resume:
+                raise
+            raise ResumeError(f"{results} cannot be read back to resume it (cut in the middle of a write: {err});"
+                              " run with --force to start over") from None
         if history:
             log.info(f"resuming {results} after step {len(history) - 1} (t = {history[-1].t:g})")
             progress(len(history))

@@ -181,3 +181,27 @@ def test_ctrl_c_stops_the_scan_cleanly_with_status_130(spacing_scan, tmp_path):
     assert "Traceback" not in err and "KeyboardInterrupt" not in err     # the workers left it to the scan
     assert err.strip().splitlines()[-1] == (f"thinfilm: interrupted; the finished runs and steps are kept in {out};"
                                             f" continue with: thinfilm scan {SPACING} --resume --out {out}")
+
+
+def test_a_run_cut_in_the_middle_of_a_write_starts_over(tmp_path, capsys):
+    # HDF5 is not crash-proof: a file cut short cannot be resumed. The command says so; a
+    # scan's task starts the run over, to the same numbers.
+    from thinfilm.scan.task import run_task
+
+    base = CASES / "fig2_5.toml"
+    overrides = {"domain.cells": 160, "model.eta_dx": 8, "load.steps": 20, "solver.search": False}
+    out = tmp_path / "run"
+    first = run_task(str(base), overrides, str(out), "cut")
+    with h5py.File(out / "results.h5", "r") as f:
+        total = f["steps/total"][()]
+    (out / "run.json").unlink()
+    data = (out / "results.h5").read_bytes()
+    (out / "results.h5").write_bytes(data[: len(data) * 2 // 3])
+    sets = [f"--set={k}={json.dumps(v)}" for k, v in overrides.items()]
+    assert main(["run", str(base), "--out", str(out), "--resume", "--quiet", *sets]) == 2
+    assert "--force to start over" in capsys.readouterr().err
+    again = run_task(str(base), overrides, str(out), "cut")
+    assert first["status"] == again["status"] == "done" and again["resumed_after_step"] is None
+    assert any("started over" in line for line in again["warnings"])
+    with h5py.File(out / "results.h5", "r") as f:
+        assert (f["steps/total"][()] == total).all()

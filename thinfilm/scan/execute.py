@@ -64,15 +64,17 @@ class IgnoreInterrupt(WorkerPlugin):
 def local_cluster(workers=None):
     """A :class:`distributed.LocalCluster` for scans: ``workers`` processes (default: the
     machine's cores) of one thread each, the numerical libraries on one thread, no memory limit,
-    no dashboard (it needs bokeh), Dask's own log lines at warnings only."""
+    its HTTP server on a free port, Dask's own log lines at warnings only."""
     import dask
     from distributed import LocalCluster
 
     n = int(workers or os.cpu_count() or 1)
     environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **THREAD_VARIABLES}
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+        # ":0": the scheduler's HTTP server (it runs even without bokeh's dashboard) on a free
+        # port, so that two scans side by side do not warn about port 8787
         return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, memory_limit=0,
-                            dashboard_address=None, silence_logs=logging.WARNING)
+                            dashboard_address=":0", silence_logs=logging.WARNING)
 
 
 def execute(plan, outdir, *, client=None, workers=None, scheduler=None, resume=False, progress=None):

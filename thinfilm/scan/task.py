@@ -114,11 +114,15 @@ def run_task(base, overrides, outdir, name):
                 with open_results(outdir) as f:
                     resume = finished_steps(f) > 0
                     record["resumed_after_step"] = finished_steps(f) - 1 if resume else None
-            except (ResultsError, OSError):  # cut before its first step was written: start over
-                resume = False
+            except (ResultsError, OSError) as err:  # cut in the middle of a write: start over
+                warnings.lines.append(f"could not resume ({' '.join(str(err).split())}); started over")
         try:
             run(scene, outdir, resume=resume)
-        except ResumeError:  # written by another scene or another numpy: start over
+        except (ResumeError, OSError) as err:
+            if not resume:
+                raise
+            # written by another scene or numpy, or cut in the middle of a write: start over
+            warnings.lines.append(f"could not resume ({' '.join(str(err).split())}); started over")
             record["resumed_after_step"] = None
             run(scene, outdir, resume=False)
     except Exception as err:  # the run's failure is the table's, not the scan's
