@@ -33,6 +33,14 @@ def same_table(rows, reference):
     return strip == [{k: v for k, v in r.items() if k not in CIRCUMSTANTIAL} for r in reference]
 
 
+def continued_or_started_over(record, step):
+    """A run that was cut: continued from at least ``step``, or started over because the cut
+    fell in the middle of a write (its warning says so)."""
+    if record["resumed_after_step"] is not None:
+        return record["resumed_after_step"] >= step
+    return any("started over" in line for line in record["warnings"])
+
+
 def finished(path):
     """Finished steps in a results.h5 being written (0 if it cannot be read yet)."""
     try:
@@ -94,8 +102,10 @@ def test_a_killed_worker_s_run_is_retried_and_resumed(client, spacing_scan, tmp_
     assert killed, "no worker was killed"
     assert not psutil.pid_exists(killed["pid"]) or psutil.Process(killed["pid"]).status() == psutil.STATUS_ZOMBIE
     record = read_record(run_dir(out, killed["name"]))
-    # Dask gave the task again to a worker, which continued the run from its last step
-    assert record["status"] == "done" and record["resumed_after_step"] >= killed["steps"] - 2 >= 18
+    # Dask gave the task again to a worker, which continued the run from its last step (or
+    # started it over if the kill cut a write: HDF5 is not crash-proof)
+    assert record["status"] == "done" and killed["steps"] >= 20
+    assert continued_or_started_over(record, killed["steps"] - 2)
     assert counts == {"done": 5} and same_table(read_table(table), reference)
 
 
@@ -118,7 +128,7 @@ def test_a_killed_scan_resumes_to_the_same_table(spacing_scan, tmp_path):
     assert resumed.returncode == 0, resumed.stderr
     for name, record in done_before.items():      # finished runs were kept, not run again
         assert read_record(run_dir(out, name)) == record
-    assert read_record(run_dir(out, midway))["resumed_after_step"] >= 29
+    assert continued_or_started_over(read_record(run_dir(out, midway)), 29)
     assert same_table(read_table(out / TABLE), reference)
 
 
