@@ -91,13 +91,19 @@ def build_model(scene, mesh):
 def release_rate(results):
     """G and a of each finished step (:func:`fem3d.release.energy_release_rate`): the crack
     front runs through the thickness (2D: ``thickness``; 3D: the mesh's extent in z), from no
-    starter notch (a0 = 0), and G is taken over growths of at least one mesh size ``h``."""
+    starter notch (a0 = 0), and G is taken over growths of at least one mesh size ``h``; NaN
+    throughout if the load has a constant part."""
     from fem3d.release import energy_release_rate
 
     p = results.parameters
     thickness = p["thickness"] if int(p["dim"]) == 2 else float(np.ptp(results.discretization.points[:, 2]))
-    return energy_release_rate(results.t, results.steps["elastic"], results.steps["surface"], p["Gc"], thickness,
+    G, a = energy_release_rate(results.t, results.steps["elastic"], results.steps["surface"], p["Gc"], thickness,
                                a0=0.0, da_min=p["h"])
+    if not p.get("proportional", True):
+        # (4.16) dB/dt = 2B/t holds for a load proportional to t only: with a constant part
+        # the steps alone do not give G
+        G[:] = np.nan
+    return G, a
 
 
 def crack_lengths(results):
@@ -170,7 +176,7 @@ class FemKind(EvolutionKind):
                 "buffers": ",".join(f"{name}:{E_b:g}" for name, E_b in m.buffers),
                 "geometry": g.kind, **({"file": g.file} if g.file else {}), "h": scene.mesh.h,
                 "h_coarse": scene.mesh.h_coarse, "t_max": scene.load.t_max, "steps": scene.load.steps,
-                "loaded": ",".join(scene.load.loaded),
+                "loaded": ",".join(scene.load.loaded), "proportional": scene.load.proportional,
                 **({"snapshots": scene.snapshots} if scene.snapshots else {}),
                 **({"reference": scene.reference} if scene.reference else {})}
 

@@ -129,6 +129,10 @@ def test_a_constant_load_is_held_while_the_other_grows():
     assert not model.proportional
     f = model.loads.force_at(0.3)
     assert f[0::2].sum() == pytest.approx(500.0) and f[1::2].sum() == 0.0
+    # recorded with the run: its energy release rate is not computed ((4.16) needs a proportional load)
+    from fem3d.kind import KIND
+
+    assert KIND.parameters(scene)["proportional"] is False
     # backtracking is allowed with a constant part (the engine's exact test)
     backtracking = parse_scene(text.replace("[load]", '[solver]\nbacktrack = "standard"\n[load]'), source="x.toml")
     assert backtracking.solver.backtrack.kind == "standard" and backtracking.solver.backtrack.test == "exact"
