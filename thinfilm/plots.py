@@ -189,6 +189,10 @@ def _draw_images(res, steps, field, values, path, title):
         ax = fig.add_axes((left / W, bottom / H, w / W, h_box / H))
         image = _draw_field(ax, d, values[i], vmin, vmax, cmap)
         ax.yaxis.set_major_locator(MaxNLocator(nbins=4 if h_box > 1.0 else 2))
+        # matplotlib's own tick choice; a panel with a neighbour on its right drops its last
+        # x label, which would run into the neighbour's first
+        ax.xaxis.set_major_locator(MaxNLocator(nbins="auto", steps=[1, 2, 2.5, 5, 10],
+                                               prune="upper" if col < ncols - 1 else None))
         ax.set_title(f"t = {res.t[k]:.4g} (step {k})", fontsize=9, pad=3)
         bottom_of_column = i + ncols >= len(steps)
         ax.tick_params(labelbottom=bottom_of_column, labelleft=col == 0, labelsize=8)
