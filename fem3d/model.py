@@ -70,7 +70,7 @@ class Loads:
                 values[node * d + c] = value
             if value != 0.0:
                 directions.setdefault(group, (nodes, np.zeros(d)))[1][c] = value
-        for group, c, value in getattr(loading, "constant_displacement", ()):
+        for group, c, value in loading.constant_displacement:
             for node in self._nodes(mesh, group, f"load.constant.displacement.{group}", source):
                 constant[node * d + c] = value
                 values.setdefault(node * d + c, 0.0)
@@ -87,18 +87,17 @@ class Loads:
             self.loaded[group] = (np.array(dofs, dtype=np.int64), np.array(weights))
         self.displacement_scale = {group: float(np.linalg.norm(v)) for group, (_, v) in directions.items()}
         self.unit_force = self._force(mesh, loading.traction, loading.force, thickness, "load", source)
-        self.constant_force = self._force(mesh, getattr(loading, "constant_traction", ()),
-                                          getattr(loading, "constant_force", ()), thickness, "load.constant", source)
-        #: True when every load is t times a fixed one (no constant part).
-        self.proportional = not (self.constant_values.any() or self.constant_force.any())
+        self.constant_force = self._force(mesh, loading.constant_traction, loading.constant_force, thickness,
+                                          "load.constant", source)
+        self.proportional = loading.proportional
 
     def values_at(self, t):
         """The prescribed values of :attr:`constrained` at load ``t``, shape (k,)."""
-        return self.constant_values + t * self.unit_values if not self.proportional else t * self.unit_values
+        return self.constant_values + t * self.unit_values
 
     def force_at(self, t):
         """The load vector at load ``t``, shape (n_dofs,)."""
-        return self.constant_force + t * self.unit_force if not self.proportional else t * self.unit_force
+        return self.constant_force + t * self.unit_force
 
     def _force(self, mesh, traction, force, thickness, name, source):
         """The load vector of tractions on boundaries and forces shared by groups' nodes."""

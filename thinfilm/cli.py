@@ -190,11 +190,6 @@ def _scan(args):
 
     with tqdm(total=len(plan.runs), desc=Path(args.scan).stem, unit="run", disable=True if args.quiet else None,
               file=sys.stderr) as bar:
-        if args.resume:
-            from thinfilm.scan.table import run_dir
-            from thinfilm.scan.task import read_record
-
-            bar.update(sum((read_record(run_dir(outdir, r.name)) or {}).get("status") == "done" for r in plan.runs))
         try:
             table, figure, counts = execute(plan, outdir, workers=args.workers, scheduler=args.scheduler,
                                             resume=args.resume, progress=lambda record: bar.update())

@@ -331,8 +331,8 @@ class Engine:
         """Whether the current state, moved to step ``k``'s load, beats step ``k``'s energy."""
         B, X, P = moved
         s = k_state.t / t
-        energy = s ** 2 * P + surface if B == X == 0.0 else B + s * X + s ** 2 * P + surface
-        return k_state.total - energy >= self.backtrack.delta
+        # with B = X = 0 (a proportional load) this is (3.17)'s (t_k/t)^2 P + S, to the bit
+        return k_state.total - (B + s * X + s ** 2 * P + surface) >= self.backtrack.delta
 
     def _deep_check(self, step, t, u, alpha, elastic, surface, history):
         n_prev = len(history)

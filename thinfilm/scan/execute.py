@@ -97,7 +97,8 @@ def execute(plan, outdir, *, client=None, workers=None, scheduler=None, resume=F
         from nothing: the directories of the plan's runs are emptied first (the command line
         refuses a directory that holds a scan unless ``--resume`` or ``--force`` is given).
     progress : callable, optional
-        ``progress(record)`` after each run finishes (the command line's progress bar).
+        ``progress(record)`` after each run finishes, and at once for each run a resumed scan
+        keeps (the command line's progress bar).
 
     Returns
     -------
@@ -116,8 +117,12 @@ def execute(plan, outdir, *, client=None, workers=None, scheduler=None, resume=F
         rundir = run_dir(outdir, spec.name)
         if not resume:
             shutil.rmtree(rundir, ignore_errors=True)
-        elif (read_record(rundir) or {}).get("status") == "done":
-            continue
+        else:
+            record = read_record(rundir)
+            if (record or {}).get("status") == "done":
+                if progress is not None:
+                    progress(record)
+                continue
         todo.append(spec)
     if not todo:  # every run done already: no cluster needed
         return collect(outdir)
