@@ -9,6 +9,9 @@ length of each step, the crack events, and the figures of :mod:`fem3d.plots`.
 
 from __future__ import annotations
 
+import importlib
+import inspect
+
 import numpy as np
 
 from fem3d import scene as fem_scene
@@ -45,8 +48,12 @@ def build_mesh(scene):
             raise SceneError(scene.source, "geometry.file", f"= {g.file!r}: a {mesh.dim}D mesh, but model.dim ="
                              f" {scene.model.dim}")
         return mesh
-    function = {"lpanel": geometry.lpanel, "three_point_bending": geometry.three_point_bending}[g.kind]
-    return function(h=scene.mesh.h, h_coarse=scene.mesh.h_coarse, **dict(g.options))
+    module, name = fem_scene.GEOMETRIES[g.kind][0].split(":")
+    function = getattr(importlib.import_module(module), name)
+    options = dict(g.options)
+    if next(iter(inspect.signature(function).parameters)) == "dim":
+        options["dim"] = scene.model.dim
+    return function(h=scene.mesh.h, h_coarse=scene.mesh.h_coarse, **options)
 
 
 def build_model(scene, mesh):

@@ -51,11 +51,19 @@ from thinfilm.scene import SceneError, SolverSettings, Table, read_snapshots, re
 
 __all__ = ["FemModelParameters", "Geometry", "MeshSizes", "Loading", "FemScene", "parse", "GEOMETRIES"]
 
-#: Geometry kinds and their own keys (all optional, with the defaults of :mod:`fem3d.geometry`).
+#: Geometry kinds: the function that meshes each (``"module:function"``, called with ``h``,
+#: ``h_coarse`` and the scene's keys), the model dimensions it makes, and its own scene keys
+#: (all optional, with the function's defaults), each ``key: (type, argument)``. Types:
+#: ``"number"`` (>= 0), ``"numbers:N"`` (a list of N finite numbers), ``("a", "b")`` (one of
+#: these strings). A function whose first parameter is ``dim`` also receives ``model.dim``.
 GEOMETRIES = {
-    "lpanel": ("refine", "window", "load", "near_load", "depth"),
-    "three_point_bending": ("configuration", "refine", "notch_width", "gray"),
-    "file": ("file",),
+    "lpanel": ("fem3d.geometry:lpanel", (2, 3),
+               {"refine": ("numbers:4", "refine"), "window": ("numbers:4", "window"), "load": ("numbers:2", "load"),
+                "near_load": ("number", "near_load"), "depth": ("number", "thickness")}),
+    "three_point_bending": ("fem3d.geometry:three_point_bending", (2,),
+                            {"configuration": (("I", "II"), "configuration"), "refine": ("numbers:4", "refine"),
+                             "notch_width": ("number", "notch_width"), "gray": ("number", "gray")}),
+    "file": (None, (2, 3), {"file": ("file", "file")}),
 }
 COMPONENTS = ("x", "y", "z")
 
@@ -256,33 +264,31 @@ def _buffers(model):
 
 
 def _geometry(source, data, dim):
-    geometry = Table(source, "geometry", data["geometry"],
-                     ("kind",) + tuple(sorted({k for keys in GEOMETRIES.values() for k in keys})))
+    all_keys = sorted({key for _, _, keys in GEOMETRIES.values() for key in keys})
+    geometry = Table(source, "geometry", data["geometry"], ("kind",) + tuple(all_keys))
     kind = geometry.choice("kind", tuple(GEOMETRIES))
+    _, dims, keys = GEOMETRIES[kind]
     for key in geometry.data:
-        if key != "kind" and key not in GEOMETRIES[kind]:
+        if key != "kind" and key not in keys:
             geometry._fail(key, geometry.data[key], f'is not a key of geometry.kind = "{kind}" (its keys:'
-                           f' {", ".join(GEOMETRIES[kind])})')
+                           f' {", ".join(keys)})')
+    if dim not in dims:
+        geometry._fail("kind", kind, f"is a {dims[0]}D geometry (model.dim = {dims[0]})")
     if kind == "file":
         return Geometry(kind, file=_path(geometry, "file"))
-    if kind == "three_point_bending" and dim != 2:
-        geometry._fail("kind", kind, "is a 2D geometry (model.dim = 2)")
     options = {}
-    for key in ("refine", "window"):
-        if geometry.has(key):
-            options[key] = _numbers(geometry, key, 4)
-    if geometry.has("load"):
-        options["load"] = _numbers(geometry, "load", 2)
-    for key in ("near_load", "depth", "notch_width", "gray"):
-        if geometry.has(key):
-            options["thickness" if key == "depth" else key] = geometry.number(key, minimum=0)
-    if kind == "lpanel":
-        options["dim"] = dim
-        if dim == 2 and "thickness" in options:
-            geometry._fail("depth", options["thickness"], "is the 3D panel's extrusion (model.dim = 3); a 2D"
-                           " panel's thickness is model.thickness")
-    if geometry.has("configuration"):
-        options["configuration"] = geometry.choice("configuration", ("I", "II"))
+    for key, (kind_of_value, argument) in keys.items():
+        if not geometry.has(key):
+            continue
+        if kind_of_value == "number":
+            options[argument] = geometry.number(key, minimum=0)
+        elif isinstance(kind_of_value, tuple):
+            options[argument] = geometry.choice(key, kind_of_value)
+        else:
+            options[argument] = _numbers(geometry, key, int(kind_of_value.split(":")[1]))
+    if kind == "lpanel" and dim == 2 and "thickness" in options:
+        geometry._fail("depth", options["thickness"], "is the 3D panel's extrusion (model.dim = 3); a 2D"
+                       " panel's thickness is model.thickness")
     return Geometry(kind, tuple(sorted(options.items())))
 
 
