@@ -17,6 +17,9 @@ damage problem's bulk part diagonal, as for the thin film)::
 
     P(u, alpha) = T sum_e |e| psi_e(u) gbar_e,      gbar_e = 1/(d + 1) sum_{i in e} g(alpha_i)
 
+With a contact split (:mod:`fem3d.split`) ``gbar_e`` multiplies the degraded part
+``psi_plus_e`` only and ``psi_minus_e`` is added intact; at a frozen switch the cell's
+stiffness has effective Lame parameters (:meth:`Elasticity.lame`).
 ``T`` the thickness in 2D (1 in 3D; energies and forces are those of the whole slab), ``|e|``
 the cell's area or volume. The u-problem at fixed ``alpha`` minimizes ``P(u, alpha) - f.u``
 (``f`` consistent nodal forces) over ``u`` with the constrained (Dirichlet) dofs prescribed:
@@ -54,7 +57,7 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
-from fem3d import kernels
+from fem3d import kernels, split as splits
 from fem3d.mesh import Mesh
 from thinfilm.options import real_in_range
 
@@ -142,6 +145,10 @@ class Elasticity:
     modulus : ndarray, shape (n_cells,), optional
         Each cell's Young's modulus over ``E`` (a buffer layer's ``E_b / E``), > 0, the same
         ``nu``; default 1 everywhere. It multiplies the cell's stiffness, stress and energy.
+    split : {"none", "amor", "positive"}
+        The part of the energy the damage degrades (:mod:`fem3d.split`, (4.10)-(4.12)).
+        With a split the u-problem depends on each cell's switch ``H(tr e)``: the
+        stiffness, the right-hand side and the reactions take it frozen (``tension``).
 
     Attributes
     ----------
@@ -152,6 +159,7 @@ class Elasticity:
         ``"stress"`` or ``"strain"`` in 2D, None in 3D.
     lam, mu : float
         The Lame parameters of the energy density (plane stress: ``lam*``).
+    split : str
     grads : ndarray, shape (n_cells, d + 1, d)
         Gradients of the P1 basis functions (1 / length).
     measure : ndarray, shape (n_cells,)
@@ -163,7 +171,7 @@ class Elasticity:
     """
 
     def __init__(self, mesh: Mesh, E: float, nu: float, *, plane: str = "stress", thickness: float = 1.0,
-                 k_res: float = 1e-6, constrained=None, modulus=None):
+                 k_res: float = 1e-6, constrained=None, modulus=None, split: str = "none"):
         self.grads, self.measure = mesh_geometry(mesh)
         self.mesh = mesh
         self.dim = d = mesh.dim
@@ -181,6 +189,9 @@ class Elasticity:
                                  " those of the solid itself)")
             self.plane = None
         self.lam, self.mu = lame_parameters(self.E, self.nu, self.plane)
+        if split not in splits.SPLITS:
+            raise ValueError(f"split = {split!r} must be one of {', '.join(splits.SPLITS)}")
+        self.split = split
         self.modulus = np.ones(mesh.n_cells) if modulus is None else np.array(self._vector("modulus", modulus, mesh.n_cells))
         if not (np.all(np.isfinite(self.modulus)) and np.all(self.modulus > 0)):
             raise ValueError("modulus must be positive and finite in every cell")
@@ -268,16 +279,29 @@ class Elasticity:
         alpha = self._vector("alpha", alpha, self.mesh.n_nodes)
         return kernels.cell_degradation(alpha, self.mesh.cells, self.k_res)
 
-    def _coef(self, alpha, cell_factor):
-        """Each cell's stiffness factor: its degradation (or ``cell_factor``) times its modulus."""
-        if cell_factor is None:
-            return self.degradation(alpha) * self.modulus
-        if alpha is not None:
-            raise ValueError("give alpha or cell_factor, not both")
-        return self._vector("cell_factor", cell_factor, self.mesh.n_cells) * self.modulus
+    def tension(self, u) -> np.ndarray:
+        """Each cell's switch ``H(tr e)`` at the displacement ``u``: True where the cell is
+        in tension, shape (n_cells,)."""
+        return splits.tension(self.strain(u), self.dim)
+
+    def lame(self, alpha, tension=None) -> tuple[np.ndarray, np.ndarray]:
+        """Each cell's effective Lame parameters ``(lam_e, mu_e)``, shape (n_cells,) each: its
+        degradation and split with the switch frozen at ``tension`` (None: every cell in
+        tension, the whole density degraded), times its modulus
+        (:func:`fem3d.split.effective_lame`)."""
+        lam, mu = splits.effective_lame(self.degradation(alpha), tension, self.lam, self.mu, self.dim, self.split)
+        return lam * self.modulus, mu * self.modulus
+
+    def _cell_lame(self, alpha, tension, lame):
+        if lame is None:
+            return self.lame(alpha, tension)
+        if alpha is not None or tension is not None:
+            raise ValueError("give alpha (and tension) or lame, not both")
+        lam, mu = lame
+        return self._vector("lame[0]", lam, self.mesh.n_cells), self._vector("lame[1]", mu, self.mesh.n_cells)
 
     # --- the linear system --------------------------------------------------------------------
-    def matrix(self, alpha, *, cell_factor=None) -> sp.csr_matrix:
+    def matrix(self, alpha, *, tension=None, lame=None) -> sp.csr_matrix:
         """The free block ``K_ff(alpha)`` of the stiffness matrix.
 
         The same ``csr_matrix`` is returned by every call, its ``data`` rewritten in place
@@ -288,21 +312,24 @@ class Elasticity:
         ----------
         alpha : ndarray, shape (n_nodes,)
             Damage at the nodes.
-        cell_factor : ndarray, shape (n_cells,), optional
-            A per-cell factor to use in place of ``gbar_e`` (then ``alpha`` must be None),
-            e.g. ``H_e gbar_e + 1 - H_e`` for a split frozen per cell.
+        tension : ndarray of bool, shape (n_cells,), optional
+            The split's switch, frozen (:meth:`tension` of an earlier displacement); None:
+            every cell in tension. Irrelevant without a split.
+        lame : (ndarray, ndarray), shape (n_cells,) each, optional
+            Each cell's effective Lame parameters, in place of :meth:`lame`'s (then ``alpha``
+            must be None).
 
         Returns
         -------
         K_ff : scipy.sparse.csr_matrix, shape (n_free, n_free)
             Units of ``E`` times length (force per displacement).
         """
-        coef = self._coef(alpha, cell_factor)
-        kernels.stiffness_values(self.grads, self.measure, self.mesh.cells, coef, self.thickness, self.lam,
-                                 self.mu, self._free_index, self._indptr, self._offsets, self._matrix.data)
+        lam, mu = self._cell_lame(alpha, tension, lame)
+        kernels.stiffness_values(self.grads, self.measure, self.mesh.cells, lam, mu, self.thickness,
+                                 self._free_index, self._indptr, self._offsets, self._matrix.data)
         return self._matrix
 
-    def rhs(self, alpha, u_constrained, f=None, *, cell_factor=None) -> np.ndarray:
+    def rhs(self, alpha, u_constrained, f=None, *, tension=None, lame=None) -> np.ndarray:
         """Right-hand side ``f_f - K_fd(alpha) u_d`` of the u-problem.
 
         Parameters
@@ -312,7 +339,7 @@ class Elasticity:
             Prescribed displacements (length), in the order of :attr:`constrained`.
         f : ndarray, shape (n_dofs,), optional
             Consistent nodal forces (force); only the free entries enter.
-        cell_factor : ndarray, shape (n_cells,), optional
+        tension, lame : optional
             See :meth:`matrix`.
 
         Returns
@@ -320,23 +347,23 @@ class Elasticity:
         ndarray, shape (n_free,)
             Force.
         """
-        coef = self._coef(alpha, cell_factor)
+        lam, mu = self._cell_lame(alpha, tension, lame)
         u_d = np.ascontiguousarray(np.broadcast_to(np.asarray(u_constrained, dtype=np.float64),
                                                    self._constrained.shape))
         out = np.zeros(self._free.size) if f is None else self._vector("f", f, self.n_dofs)[self._free].copy()
-        kernels.boundary_product(self.grads, self.measure, self.mesh.cells, self._boundary_cells, coef,
-                                 self.thickness, self.lam, self.mu, self._free_index, self._con_index, u_d,
-                                 -1.0, out)
+        kernels.boundary_product(self.grads, self.measure, self.mesh.cells, self._boundary_cells, lam, mu,
+                                 self.thickness, self._free_index, self._con_index, u_d, -1.0, out)
         return out
 
-    def reactions(self, alpha, u, f=None, *, cell_factor=None) -> np.ndarray:
+    def reactions(self, alpha, u, f=None, *, lame=None) -> np.ndarray:
         """The residual ``K(alpha) u - f`` on the constrained dofs: the forces the supports
         exert on the body, per dof.
 
         At a solution of the u-problem they balance the applied forces: their sum and
         moment equal minus those of ``f``. Along a prescribed displacement ``t v`` (``v`` on
         the constrained dofs), ``v . reactions`` is ``dP/dt`` (``P`` the elastic energy at
-        the solution, ``f = 0``).
+        the solution, ``f = 0``). With a split, ``K`` is that of ``u``'s own switch, whose
+        ``K u`` is the true internal force (module :mod:`fem3d.split`).
 
         Parameters
         ----------
@@ -345,7 +372,7 @@ class Elasticity:
             The full displacement.
         f : ndarray, shape (n_dofs,), optional
             Consistent nodal forces; default 0.
-        cell_factor : ndarray, shape (n_cells,), optional
+        lame : optional
             See :meth:`matrix`.
 
         Returns
@@ -353,12 +380,12 @@ class Elasticity:
         ndarray, shape (n_constrained,)
             Force, in the order of :attr:`constrained`.
         """
-        coef = self._coef(alpha, cell_factor)
         u = self._vector("u", u, self.n_dofs)
+        tension = None if (lame is not None or self.split == "none") else self.tension(u)
+        lam, mu = self._cell_lame(alpha, tension, lame)
         out = np.zeros(self._constrained.size)
-        kernels.boundary_product(self.grads, self.measure, self.mesh.cells, self._boundary_cells, coef,
-                                 self.thickness, self.lam, self.mu, self._con_index, self._dof_index, u, 1.0,
-                                 out)
+        kernels.boundary_product(self.grads, self.measure, self.mesh.cells, self._boundary_cells, lam, mu,
+                                 self.thickness, self._con_index, self._dof_index, u, 1.0, out)
         if f is not None:
             out -= self._vector("f", f, self.n_dofs)[self._constrained]
         return out
@@ -386,17 +413,26 @@ class Elasticity:
         return kernels.strain_energy_density(self.grads, self.mesh.cells, self._vector("u", u, self.n_dofs),
                                              self.lam, self.mu) * self.modulus
 
+    def energy_parts(self, u) -> tuple[np.ndarray, np.ndarray]:
+        """``(psi_plus, psi_minus)`` of each cell: the part of its density the damage degrades
+        and the part it leaves intact (:func:`fem3d.split.energy_parts`), each cell's modulus
+        included, shape (n_cells,) each (energy per volume)."""
+        plus, minus = splits.energy_parts(self.strain(u), self.lam, self.mu, self.dim, self.split)
+        return plus * self.modulus, minus * self.modulus
+
     def nodal_energy(self, u) -> np.ndarray:
-        """The nodal energy ``c_i = T sum_{e ni i} |e| psi_e / (d + 1)``, shape (n_nodes,) (energy):
-        ``P(u, alpha) = sum_i c_i g(alpha_i)``."""
+        """The nodal energy ``c_i = T sum_{e ni i} |e| psi_plus_e / (d + 1)``, shape (n_nodes,)
+        (energy): ``P(u, alpha) = sum_i c_i g(alpha_i) + T sum_e |e| psi_minus_e``, whose
+        first part alone depends on the damage."""
         out = np.empty(self.mesh.n_nodes)
-        kernels.nodal_energy(self.strain_energy_density(u), self.measure, self.mesh.cells, self.thickness, out)
+        kernels.nodal_energy(self.energy_parts(u)[0], self.measure, self.mesh.cells, self.thickness, out)
         return out
 
     def elastic_energy(self, u, alpha) -> float:
-        """``P(u, alpha) = T sum_e |e| psi_e(u) gbar_e`` (energy), summed over the cells."""
-        psi = self.strain_energy_density(u)
-        return float(self.thickness * np.dot(self.measure * psi, self.degradation(alpha)))
+        """``P(u, alpha) = T sum_e |e| (gbar_e psi_plus_e(u) + psi_minus_e(u))`` (energy)."""
+        plus, minus = self.energy_parts(u)
+        return float(self.thickness * (np.dot(self.measure * plus, self.degradation(alpha))
+                                       + np.dot(self.measure, minus)))
 
     # --- near-nullspace -----------------------------------------------------------------------
     def rigid_modes(self) -> np.ndarray:

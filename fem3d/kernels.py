@@ -332,13 +332,14 @@ def _gram(grads, e, gg):
 
 
 @njit(cache=True)
-def stiffness_values(grads, measure, cells, coef, thickness, lam, mu, free_index, indptr, offsets, data):
-    """Write the values of ``K_ff = sum_e thickness coef_e |e| B_e^T C B_e`` into ``data``.
+def stiffness_values(grads, measure, cells, lam, mu, thickness, free_index, indptr, offsets, data):
+    """Write the values of ``K_ff = sum_e thickness |e| B_e^T C_e B_e`` into ``data``.
 
     Parameters
     ----------
-    coef : ndarray, shape (n_cells,)
-        Per-cell factor (the degradation ``gbar_e``).
+    lam, mu : ndarray, shape (n_cells,)
+        Each cell's effective Lame parameters (degraded, split, times its modulus:
+        :func:`fem3d.split.effective_lame`), ``C_e`` their isotropic tensor.
     free_index : ndarray of int64, shape (n_dofs,)
     indptr : ndarray of int64, shape (n_free + 1,)
         The pattern of :func:`free_pattern`.
@@ -351,9 +352,9 @@ def stiffness_values(grads, measure, cells, coef, thickness, lam, mu, free_index
     data[:] = 0.0
     gg = np.empty((nv, nv), dtype=np.float64)
     for e in range(n_cells):
-        w = thickness * coef[e] * measure[e]
-        wl = w * lam
-        wm = w * mu
+        w = thickness * measure[e]
+        wl = w * lam[e]
+        wm = w * mu[e]
         _gram(grads, e, gg)
         for k in range(nv):
             i = cells[e, k]
@@ -414,14 +415,14 @@ def _voigt_B(grads):
     return B
 
 
-def stiffness_reference(grads, measure, cells, coef, thickness, lam, mu):
+def stiffness_reference(grads, measure, cells, lam, mu, thickness):
     """scipy reference: the full ``K`` (all dofs, CSR) assembled from the Voigt element
-    matrices ``thickness coef_e |e| B_e^T D B_e``; restrict it to the free dofs to compare
-    with :func:`stiffness_values`."""
+    matrices ``thickness |e| B_e^T D_e B_e`` (``D_e`` of the cell's ``lam[e]``, ``mu[e]``);
+    restrict it to the free dofs to compare with :func:`stiffness_values`."""
     n, nv, d = grads.shape
     B = _voigt_B(grads)
-    D = elasticity_matrix_voigt(lam, mu, d)
-    Ke = np.einsum("e,eki,kl,elj->eij", thickness * coef * measure, B, D, B)
+    D = np.stack([elasticity_matrix_voigt(a, b, d) for a, b in zip(lam, mu)])
+    Ke = np.einsum("e,eki,ekl,elj->eij", thickness * measure, B, D, B)
     dofs = (cells[:, :, None] * d + np.arange(d)).reshape(n, nv * d)
     rows = np.repeat(dofs, nv * d, axis=1).ravel()
     cols = np.tile(dofs, (1, nv * d)).ravel()
@@ -432,8 +433,7 @@ def stiffness_reference(grads, measure, cells, coef, thickness, lam, mu):
 
 
 @njit(cache=True)
-def boundary_product(grads, measure, cells, cell_list, coef, thickness, lam, mu, row_index, col_index, x,
-                     sign, out):
+def boundary_product(grads, measure, cells, cell_list, lam, mu, thickness, row_index, col_index, x, sign, out):
     """``out[row_index[i]] += sign (K_e x)_i``, summed over the cells of ``cell_list``: a block
     of ``K`` times a vector, where only the cells touching a constrained dof contribute.
 
@@ -442,13 +442,15 @@ def boundary_product(grads, measure, cells, cell_list, coef, thickness, lam, mu,
     ``out -= K_fd u_d`` (rows ``free_index``, columns ``con_index``, ``x = u_d``, ``sign =
     -1``) and the reactions ``out += (K u)_d`` (rows ``con_index``, every column, ``x = u``,
     ``sign = +1``). ``cell_list``: the cells with a constrained dof (the others have no
-    ``K_fd`` or ``K_dd`` entry).
+    ``K_fd`` or ``K_dd`` entry). ``lam``, ``mu``: each cell's effective Lame parameters,
+    shape (n_cells,), as in :func:`stiffness_values`.
     """
     nv, d = grads.shape[1], grads.shape[2]
     gg = np.empty((nv, nv), dtype=np.float64)
     for q in range(cell_list.size):
         e = cell_list[q]
-        w = thickness * coef[e] * measure[e]
+        w = thickness * measure[e]
+        le, me = lam[e], mu[e]
         _gram(grads, e, gg)
         for k in range(nv):
             i = cells[e, k]
@@ -465,9 +467,9 @@ def boundary_product(grads, measure, cells, cell_list, coef, thickness, lam, mu,
                         c = col_index[j * d + b]
                         if c < 0:
                             continue
-                        v = lam * (gia * grads[e, m, b]) + mu * (grads[e, k, b] * gja)
+                        v = le * (gia * grads[e, m, b]) + me * (grads[e, k, b] * gja)
                         if a == b:
-                            v += mu * gg[k, m]
+                            v += me * gg[k, m]
                         s += v * x[c]
                 out[r] += sign * (w * s)
 

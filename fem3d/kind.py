@@ -84,7 +84,7 @@ def build_model(scene, mesh):
         modulus[mesh.cell_groups[region]] = E_b / m.E
     fixed_nodes = np.unique(np.concatenate(fixed)) if fixed else None
     elasticity = Elasticity(mesh, m.E, m.nu, plane=m.plane if m.dim == 2 else "stress", thickness=m.thickness,
-                            k_res=m.k_res, constrained=loads.constrained, modulus=modulus)
+                            k_res=m.k_res, constrained=loads.constrained, modulus=modulus, split=m.split)
     damage = DamageOperator(mesh, m.Gc, m.eps, at=m.at, thickness=m.thickness, fixed_nodes=fixed_nodes)
     K = elasticity.matrix(np.zeros(mesh.n_nodes))
     kind = scene.solver.linear
@@ -170,9 +170,14 @@ class FemKind(EvolutionKind):
             if loaded:
                 out["force"] = forces[loaded[0]]
                 out["displacement"] = t * loads.displacement_scale[loaded[0]]
+            if m.split != "none":
+                # the step's linear solves inside its u-solves and the cells they switched
+                out["split_solves"], out["split_switches"] = len(model.switches), sum(model.switches)
+                model.switches.clear()
             return out
 
-        observables = (("force", "displacement") if loaded else ()) + tuple(f"force_{g}" for g in loaded[1:])
+        observables = ((("force", "displacement") if loaded else ()) + tuple(f"force_{g}" for g in loaded[1:])
+                       + (("split_solves", "split_switches") if m.split != "none" else ()))
         return Setup(model=model, discretization=mesh.description(), components={"u": mesh.dim}, observe=observe,
                      observables=observables, log=lines)
 
@@ -180,7 +185,7 @@ class FemKind(EvolutionKind):
         m, g = scene.model, scene.geometry
         return {"dim": m.dim, "E": m.E, "nu": m.nu, "Gc": m.Gc, "eps": m.eps, "k_res": m.k_res, "at": m.at,
                 "plane": m.plane, "thickness": m.thickness, "undamaged": ",".join(m.undamaged),
-                "buffers": ",".join(f"{name}:{E_b:g}" for name, E_b in m.buffers),
+                "buffers": ",".join(f"{name}:{E_b:g}" for name, E_b in m.buffers), "split": m.split,
                 "geometry": g.kind, **({"file": g.file} if g.file else {}), "h": scene.mesh.h,
                 "h_coarse": scene.mesh.h_coarse, "t_max": scene.load.t_max, "steps": scene.load.steps,
                 "loaded": ",".join(scene.load.loaded), "proportional": scene.load.proportional,

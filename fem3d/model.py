@@ -168,16 +168,70 @@ class FemModel:
         self.n_alpha = mesh.n_nodes
         self.toughness = float(damage.Gc * damage.thickness)
         self.last_solve_info = None
+        #: With a split: the number of cells whose switch changed after each linear solve,
+        #: appended by every u-solve (the run reads and clears it after each step).
+        self.switches = []
+        #: Linear solves allowed in one u-solve with a split.
+        self.max_switch_solves = 30
 
     def solve_u(self, alpha, t, u0, rtol):
-        """The displacement minimizing the energy at fixed ``alpha``, shape ``(n_dofs,)``."""
+        """The displacement minimizing the energy at fixed ``alpha``, shape ``(n_dofs,)``.
+
+        Without a split one linear solve. With a split (:mod:`fem3d.split`) the switch of
+        each cell is frozen at the warm start's, the linear problem solved, the switch
+        updated from the solution, and so on until no cell switches (at most
+        :attr:`max_switch_solves` solves): for ``"amor"`` the semi-smooth Newton method of a
+        convex energy, each step halved until the energy decreases; for ``"positive"``, whose
+        energy jumps across the switch, a fixed point that returns the iterate of least
+        energy (the warm start itself if it is at this load and none does better), so that
+        the u-step never raises the energy. The cells switched by each solve are appended
+        to :attr:`switches`.
+        """
+        values, force = self.loads.values_at(t), self.loads.force_at(t)
+        if self.elasticity.split == "none":
+            return self._solve_frozen(alpha, values, force, None, u0, rtol)
+        return self._solve_split(alpha, values, force, u0, rtol)
+
+    def _solve_frozen(self, alpha, values, force, tension, u0, rtol):
+        """The u-problem's solution with the split's switch frozen at ``tension``."""
         el = self.elasticity
-        self.linear_solver.update(el.matrix(alpha))
-        u_constrained = self.loads.values_at(t)
-        rhs = el.rhs(alpha, u_constrained, self.loads.force_at(t))
+        self.linear_solver.update(el.matrix(alpha, tension=tension))
+        rhs = el.rhs(alpha, values, force, tension=tension)
         x0 = None if u0 is None else np.asarray(u0)[el.free]
         u_free, self.last_solve_info = self.linear_solver.solve(rhs, x0=x0, rtol=rtol)
-        return el.expand(u_free, u_constrained)
+        return el.expand(u_free, values)
+
+    def _solve_split(self, alpha, values, force, u0, rtol):
+        el = self.elasticity
+
+        def energy(u):
+            return el.elastic_energy(u, alpha) - float(force @ u)
+
+        tension = None if u0 is None else el.tension(u0)
+        # the warm start competes only if it meets this load's prescribed values
+        here = u0 is not None and np.array_equal(np.asarray(u0)[el.constrained], values)
+        previous = np.asarray(u0) if here else None
+        best, best_energy = (previous, energy(previous)) if here else (None, np.inf)
+        for _ in range(self.max_switch_solves):
+            u = self._solve_frozen(alpha, values, force, tension, u0 if previous is None else previous, rtol)
+            e_u = energy(u)
+            if el.split == "amor" and previous is not None and e_u > best_energy:
+                # a semi-smooth Newton step is a descent direction of the convex energy: halve it
+                step = u - previous
+                for halving in range(1, 31):
+                    u = previous + 0.5 ** halving * step
+                    e_u = energy(u)
+                    if e_u <= best_energy:
+                        break
+            new = el.tension(u)
+            switched = int(np.count_nonzero(new != (True if tension is None else tension)))
+            self.switches.append(switched)
+            if e_u <= best_energy:
+                best, best_energy = u, e_u
+            previous, tension = u, new
+            if switched == 0:
+                break
+        return best
 
     def damage_problem(self, u, t):
         return self.damage.problem(self.elasticity.nodal_energy(u))

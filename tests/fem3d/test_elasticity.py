@@ -185,7 +185,7 @@ def test_kernels_against_references(dim, plane):
     gbar = el.degradation(alpha)
     np.testing.assert_allclose(gbar, kernels.cell_degradation_reference(alpha, mesh.cells, el.k_res), rtol=1e-15)
 
-    K_full = kernels.stiffness_reference(el.grads, el.measure, mesh.cells, gbar, T, el.lam, el.mu)
+    K_full = kernels.stiffness_reference(el.grads, el.measure, mesh.cells, gbar * el.lam, gbar * el.mu, T)
     free = el.free
     K = el.matrix(alpha)
     assert K.shape == (free.size, free.size) and K.has_sorted_indices and K.nnz == el.nnz
@@ -256,7 +256,8 @@ def test_matrix_is_rewritten_in_place():
     K1 = el.matrix(np.full(el.mesh.n_nodes, 0.5))
     assert K1 is K0
     assert rel_diff(K1.data, data0 * (0.25 + el.k_res) / (1.0 + el.k_res)) < 1e-14
-    assert rel_diff(el.matrix(None, cell_factor=np.full(el.mesh.n_cells, 2.0)).data, 2 * data0 / (1 + el.k_res)) < 1e-14
+    lame = (np.full(el.mesh.n_cells, 2.0 * el.lam), np.full(el.mesh.n_cells, 2.0 * el.mu))
+    assert rel_diff(el.matrix(None, lame=lame).data, 2 * data0 / (1 + el.k_res)) < 1e-14
 
 
 @pytest.mark.parametrize("dim", [2, 3])
