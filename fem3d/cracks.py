@@ -16,7 +16,8 @@ import math
 
 import numpy as np
 
-__all__ = ["BROKEN", "crack_tip", "initial_direction", "crack_through_depth", "holes_reached"]
+__all__ = ["BROKEN", "crack_tip", "initial_direction", "crack_through_depth", "holes_reached", "trace_angles",
+           "twist", "cracks_from"]
 
 #: Damage at which a node counts as broken (the dissertation draws cracks as 0.9 <= alpha <= 1).
 BROKEN = 0.9
@@ -143,4 +144,133 @@ def holes_reached(points, alpha, holes, radius, margin, threshold=BROKEN):
     for name, centre in sorted(holes.items(), key=lambda item: item[1][1]):
         if broken.size and np.min(np.linalg.norm(broken[:, :2] - np.asarray(centre), axis=1)) <= radius + margin:
             out.append(name)
+    return out
+
+
+def trace_angles(points, alpha, levels, width, axis=2, threshold=BROKEN, min_nodes=6):
+    """A 3D crack surface read section by section: the direction of its trace on planes across
+    ``axis``.
+
+    In each slab ``|x_axis - level| <= width / 2`` the broken nodes' coordinates in the two
+    other axes (in increasing order: (x, y) for ``axis = 2``) are fitted by a line, their
+    principal axis (the first right singular vector of the centred coordinates). A planar
+    crack gives the same angle on every section; a twisted one (Brokenshire's torsion test) a
+    trace that turns from one section to the next.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n, 3)
+    alpha : ndarray, shape (n,)
+    levels : sequence of float
+        The sections' coordinates along ``axis``.
+    width : float
+        The slabs' width (a mesh size or two: each must hold a layer of nodes).
+    axis : {0, 1, 2}
+    threshold : float
+    min_nodes : int
+        Fewer broken nodes in a slab give no angle.
+
+    Returns
+    -------
+    list of tuple (level, angle, count, flatness)
+        ``angle``: the trace's direction in degrees in [0, 180), counterclockwise from the
+        first in-plane axis (NaN with fewer than ``min_nodes``); ``count``: the slab's broken
+        nodes; ``flatness``: the second singular value over the first (0 for nodes on a line;
+        near 1 for a blob, whose angle means nothing).
+    """
+    points, alpha = np.asarray(points), np.asarray(alpha)
+    plane = [a for a in range(3) if a != axis]
+    broken = points[alpha >= threshold]
+    out = []
+    for level in levels:
+        xy = broken[np.abs(broken[:, axis] - level) <= width / 2][:, plane]
+        if len(xy) < min_nodes:
+            out.append((float(level), math.nan, len(xy), math.nan))
+            continue
+        _, s, vt = np.linalg.svd(xy - xy.mean(axis=0), full_matrices=False)
+        angle = math.degrees(math.atan2(vt[0, 1], vt[0, 0])) % 180.0
+        out.append((float(level), angle, len(xy), float(s[1] / s[0]) if s[0] > 0 else math.nan))
+    return out
+
+
+def twist(angles):
+    """The turn of a crack's trace across sections: ``angles`` (degrees, modulo 180, from
+    :func:`trace_angles`, NaN skipped) unwrapped so that consecutive ones differ by at most
+    90 degrees.
+
+    Returns
+    -------
+    unwrapped : ndarray
+        The defined angles, unwrapped (the first kept as it is).
+    total : float
+        Last minus first (degrees, signed; 0 for a planar crack, NaN with fewer than two).
+    """
+    a = np.asarray(angles, dtype=float)
+    a = a[np.isfinite(a)]
+    if len(a) < 2:
+        return a, math.nan
+    steps = (np.diff(a) + 90.0) % 180.0 - 90.0
+    unwrapped = np.concatenate([a[:1], a[0] + np.cumsum(steps)])
+    return unwrapped, float(unwrapped[-1] - unwrapped[0])
+
+
+def cracks_from(points, cells, alpha, origins, reach, threshold=BROKEN):
+    """The crack leaving each of ``origins`` (e.g. a specimen's notch tips): the broken nodes
+    connected, through mesh edges whose two ends are broken, to a broken node within ``reach``
+    of the origin.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n, 2)
+    cells : ndarray, shape (m, 3)
+        The triangles (their edges connect the nodes).
+    alpha : ndarray, shape (n,)
+    origins : sequence of (x, y)
+        Where the cracks start.
+    reach : float
+        How close to its origin a crack's nearest broken node must be (a notch's half width
+        plus a mesh size or two).
+    threshold : float
+
+    Returns
+    -------
+    list of dict, one per origin
+        ``"nodes"``: the crack's nodes (sorted; empty if none); ``"tip"``: its node farthest
+        from the origin (None if none); ``"length"``: the chord from the origin to the tip, as
+        :func:`crack_tip` (0 if none); ``"angle"``: the chord's direction in degrees from +x
+        (NaN if none); ``"path"``: the length along the crack, from the origin to its nearest
+        node, then the shortest way through the crack's edges to the tip (a zig-zag on the
+        mesh: at most about 15 % above the arc length on near-equilateral triangles; 0 if
+        none). A crack that joins two origins is the crack of both.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components, dijkstra
+
+    points, alpha = np.asarray(points, dtype=float), np.asarray(alpha)
+    broken = alpha >= threshold
+    cells = np.asarray(cells)
+    pairs = np.concatenate([cells[:, [0, 1]], cells[:, [1, 2]], cells[:, [2, 0]]])
+    pairs = pairs[broken[pairs[:, 0]] & broken[pairs[:, 1]]]
+    lengths = np.linalg.norm(points[pairs[:, 0]] - points[pairs[:, 1]], axis=1)
+    n = len(points)
+    graph = coo_matrix((lengths, (pairs[:, 0], pairs[:, 1])), shape=(n, n)).tocsr()
+    graph = graph.maximum(graph.T)
+    _, label = connected_components(graph, directed=False)
+    out = []
+    for origin in origins:
+        origin = np.asarray(origin, dtype=float)
+        distance = np.linalg.norm(points - origin, axis=1)
+        near = np.flatnonzero(broken & (distance <= reach))
+        if near.size == 0:
+            out.append({"nodes": np.zeros(0, dtype=np.int64), "tip": None, "length": 0.0, "angle": math.nan,
+                        "path": 0.0})
+            continue
+        nodes = np.flatnonzero(broken & np.isin(label, np.unique(label[near])))
+        tip = nodes[int(np.argmax(distance[nodes]))]
+        start = near[int(np.argmin(distance[near]))]
+        along = dijkstra(graph, directed=False, indices=start)[tip]
+        d = points[tip] - origin
+        out.append({"nodes": nodes, "tip": points[tip].copy(), "length": float(distance[tip]),
+                    "angle": math.degrees(math.atan2(d[1], d[0])),
+                    "path": float(distance[start] + along) if np.isfinite(along) else float(distance[tip])})
     return out

@@ -1,8 +1,8 @@
 """Bulk solids by finite elements as a model kind (``kind = "fem"``).
 
 :data:`KIND` is what :mod:`thinfilm.kinds` finds. It reads ``kind = "fem"`` scenes
-(:mod:`fem3d.scene`), meshes the geometry with gmsh (:mod:`fem3d.geometry`), builds the P1
-elasticity and damage operators and the boundary conditions, chooses the linear solver, and
+(:mod:`fem3d.scene`), meshes the geometry with gmsh (:mod:`fem3d.geometry`), builds the P1 or
+P2 elasticity and the damage operator and the boundary conditions, chooses the linear solver, and
 adds to what every run writes the reaction force, the prescribed displacement and the crack
 length of each step, the crack events, and the figures of :mod:`fem3d.plots`.
 """
@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import math
 
 import numpy as np
 
@@ -70,7 +71,12 @@ def build_model(scene, mesh):
     from thinfilm.solvers.linear import make_solver
 
     m = scene.model
-    loads = Loads(mesh, scene.load, m.thickness, scene.source)
+    space = None
+    if m.element == "P2":
+        from fem3d.quadratic import QuadraticSpace
+
+        space = QuadraticSpace(mesh)   # the displacement's nodes: vertices, then edge midpoints
+    loads = Loads(mesh, scene.load, m.thickness, scene.source, space=space)
     fixed = []
     modulus = np.ones(mesh.n_cells)
     regions = [("model.undamaged", name) for name in m.undamaged] + [(f"model.buffers.{name}", name)
@@ -83,8 +89,14 @@ def build_model(scene, mesh):
     for region, E_b in m.buffers:
         modulus[mesh.cell_groups[region]] = E_b / m.E
     fixed_nodes = np.unique(np.concatenate(fixed)) if fixed else None
-    elasticity = Elasticity(mesh, m.E, m.nu, plane=m.plane if m.dim == 2 else "stress", thickness=m.thickness,
-                            k_res=m.k_res, constrained=loads.constrained, modulus=modulus, split=m.split)
+    if space is None:
+        element, extra = Elasticity, {}
+    else:
+        from fem3d.quadratic_elasticity import QuadraticElasticity
+
+        element, extra = QuadraticElasticity, {"space": space}
+    elasticity = element(mesh, m.E, m.nu, plane=m.plane if m.dim == 2 else "stress", thickness=m.thickness,
+                         k_res=m.k_res, constrained=loads.constrained, modulus=modulus, split=m.split, **extra)
     damage = DamageOperator(mesh, m.Gc, m.eps, at=m.at, thickness=m.thickness, fixed_nodes=fixed_nodes)
     K = elasticity.matrix(np.zeros(mesh.n_nodes))
     kind = scene.solver.linear
@@ -95,20 +107,56 @@ def build_model(scene, mesh):
     return FemModel(mesh, elasticity, damage, loads, solver)
 
 
+#: The straight crack front of the 3D geometries whose crack runs through their depth, as
+#: the energy release rate reads it: the geometry function's argument that is the front's
+#: width, and the one that is the starter crack's length (None: the crack starts at a or from
+#: nothing, a0 = 0). A geometry not listed has no such front (the Brokenshire crack is a
+#: twisted surface): its G is not computed. A mesh file's front is taken as its extent in z.
+FRONTS = {"lpanel": ("thickness", None), "double_torsion": ("thickness", "notch")}
+
+
+def crack_front(scene):
+    """``(width, a0)`` of the scene's crack front for the energy release rate: 2D, the slab's
+    thickness and 0; 3D, from :data:`FRONTS` and the geometry's options (its function's
+    defaults where the scene gives none); width ``"none"`` if the geometry has no straight
+    front, ``"mesh"`` for a mesh file (its extent in z, read from the results)."""
+    m, g = scene.model, scene.geometry
+    if m.dim == 2:
+        return m.thickness, 0.0
+    if g.kind == "file":
+        return "mesh", 0.0
+    if g.kind not in FRONTS:
+        return "none", 0.0
+    module, name = fem_scene.GEOMETRIES[g.kind][0].split(":")
+    defaults = inspect.signature(getattr(importlib.import_module(module), name)).parameters
+    options = dict(g.options)
+    width, start = FRONTS[g.kind]
+
+    def value(key):
+        return float(options.get(key, defaults[key].default))
+
+    return value(width), (0.0 if start is None else value(start))
+
+
 def release_rate(results):
     """G and a of each finished step (:func:`fem3d.release.energy_release_rate`): the crack
-    front runs through the thickness (2D: ``thickness``; 3D: the mesh's extent in z), from no
-    starter notch (a0 = 0), and G is taken over growths of at least one mesh size ``h``; NaN
-    throughout if the load has a constant part."""
+    front's width and starter length as the run recorded them (:func:`crack_front`; files
+    written before: the thickness in 2D, the mesh's extent in z in 3D, a0 = 0), G taken over
+    growths of at least one mesh size ``h``; NaN throughout if the load has a constant part or
+    the geometry has no straight front."""
     from fem3d.release import energy_release_rate
 
     p = results.parameters
-    thickness = p["thickness"] if int(p["dim"]) == 2 else float(np.ptp(results.discretization.points[:, 2]))
-    G, a = energy_release_rate(results.t, results.steps["elastic"], results.steps["surface"], p["Gc"], thickness,
-                               a0=0.0, da_min=p["h"])
-    if not p.get("proportional", True):
+    width = p.get("front_width", "mesh")
+    if width == "mesh":
+        width = p["thickness"] if int(p["dim"]) == 2 else float(np.ptp(results.discretization.points[:, 2]))
+    width = math.nan if width == "none" else float(width)
+    a0 = float(p.get("a0", 0.0))
+    G, a = energy_release_rate(results.t, results.steps["elastic"], results.steps["surface"], p["Gc"],
+                               width if math.isfinite(width) else 1.0, a0=a0, da_min=p["h"])
+    if not p.get("proportional", True) or not math.isfinite(width):
         # (4.16) dB/dt = 2B/t holds for a load proportional to t only: with a constant part
-        # the steps alone do not give G
+        # the steps alone do not give G; without a straight front there is no a
         G[:] = np.nan
     return G, a
 
@@ -142,7 +190,8 @@ def crack_events(t, length, jump):
 
 
 class FemKind(EvolutionKind):
-    """``kind = "fem"``: linear elasticity with AT damage on P1 triangles or tetrahedra."""
+    """``kind = "fem"``: linear elasticity with AT damage on triangles or tetrahedra (P1 or P2
+    displacements, P1 damage)."""
 
     name = "fem"
     required_datasets = ("mesh/points", "fields/u", "fields/alpha")
@@ -160,7 +209,7 @@ class FemKind(EvolutionKind):
         lines = [f"mesh: {mesh.dim}D, {mesh.n_nodes} nodes, {mesh.n_cells} {'triangles' if mesh.dim == 2 else 'tetrahedra'};"
                  f" h = {scene.mesh.h:g} where the crack may run (eps/h = {m.eps / scene.mesh.h:.3g}),"
                  f" {scene.mesh.h_coarse:g} elsewhere",
-                 f"u-solve: {model.linear_solver.kind}, {model.elasticity.free.size} free dofs;"
+                 f"u-solve: {model.linear_solver.kind}, {m.element}, {model.elasticity.free.size} free dofs;"
                  f" damage held at 0 on {0 if model.damage.fixed_nodes is None else model.damage.fixed_nodes.size}"
                  " nodes"]
 
@@ -178,14 +227,23 @@ class FemKind(EvolutionKind):
 
         observables = ((("force", "displacement") if loaded else ()) + tuple(f"force_{g}" for g in loaded[1:])
                        + (("split_solves", "split_switches") if m.split != "none" else ()))
-        return Setup(model=model, discretization=mesh.description(), components={"u": mesh.dim}, observe=observe,
-                     observables=observables, log=lines)
+        if m.element == "P2":
+            # /mesh is the P1 mesh (the damage's, what the plots and XDMF draw) with its edges;
+            # /fields/u holds the vertices' values, then the edge midpoints'
+            discretization, sizes = model.elasticity.space.description(), {"u": model.elasticity.n_dofs}
+        else:
+            discretization, sizes = mesh.description(), {}
+        return Setup(model=model, discretization=discretization, components={"u": mesh.dim}, sizes=sizes,
+                     observe=observe, observables=observables, log=lines)
 
     def parameters(self, scene):
         m, g = scene.model, scene.geometry
+        front_width, a0 = crack_front(scene)   # the energy release rate's a = S / (Gc width) + a0
         return {"dim": m.dim, "E": m.E, "nu": m.nu, "Gc": m.Gc, "eps": m.eps, "k_res": m.k_res, "at": m.at,
                 "plane": m.plane, "thickness": m.thickness, "undamaged": ",".join(m.undamaged),
                 "buffers": ",".join(f"{name}:{E_b:g}" for name, E_b in m.buffers), "split": m.split,
+                "front_width": front_width, "a0": a0,
+                "element": m.element,
                 "geometry": g.kind, **({"file": g.file} if g.file else {}), "h": scene.mesh.h,
                 "h_coarse": scene.mesh.h_coarse, "t_max": scene.load.t_max, "steps": scene.load.steps,
                 "loaded": ",".join(scene.load.loaded), "proportional": scene.load.proportional,

@@ -36,6 +36,10 @@ class Loads:
         2D slab thickness (tractions are per unit area of the slab's faces).
     source : str
         The scene file, for messages naming a missing group.
+    space : fem3d.quadratic.QuadraticSpace, optional
+        The displacement's nodes when they are not the mesh's vertices (P2): prescribed
+        displacements then hold on all the P2 nodes of a group, tractions give the consistent
+        P2 facet load, and the dofs and load vectors run over the P2 nodes.
 
     Attributes
     ----------
@@ -56,22 +60,24 @@ class Loads:
         ``constrained`` and the unit direction of its displacement, shape (k_g,) each.
     """
 
-    def __init__(self, mesh: Mesh, loading, thickness=1.0, source="<string>"):
+    def __init__(self, mesh: Mesh, loading, thickness=1.0, source="<string>", space=None):
         d = mesh.dim
+        self.space = space
+        nodes_of = mesh if space is None else space   # the displacement's nodes and their groups
         values, constant = {}, {}
         for group in loading.fixed:
-            for node in self._nodes(mesh, group, "load.fixed", source):
+            for node in self._nodes(nodes_of, group, "load.fixed", source):
                 for c in range(d):
                     values[node * d + c] = 0.0
         directions = {}
         for group, c, value in loading.displacement:
-            nodes = self._nodes(mesh, group, f"load.displacement.{group}", source)
+            nodes = self._nodes(nodes_of, group, f"load.displacement.{group}", source)
             for node in nodes:
                 values[node * d + c] = value
             if value != 0.0:
                 directions.setdefault(group, (nodes, np.zeros(d)))[1][c] = value
         for group, c, value in loading.constant_displacement:
-            for node in self._nodes(mesh, group, f"load.constant.displacement.{group}", source):
+            for node in self._nodes(nodes_of, group, f"load.constant.displacement.{group}", source):
                 constant[node * d + c] = value
                 values.setdefault(node * d + c, 0.0)
         self.constrained = np.array(sorted(values), dtype=np.int64)
@@ -102,18 +108,25 @@ class Loads:
     def _force(self, mesh, traction, force, thickness, name, source):
         """The load vector of tractions on boundaries and forces shared by groups' nodes."""
         d = mesh.dim
-        f = np.zeros(mesh.n_nodes * d)
+        nodes_of = mesh if self.space is None else self.space
+        f = np.zeros(nodes_of.n_nodes * d)
         for group, vector in traction:
             facets = mesh.facet_groups.get(group)
             if facets is None:
                 raise SceneError(source, f"{name}.traction.{group}", f"no boundary {group!r} in the mesh (its"
                                  f" boundaries: {', '.join(sorted(mesh.facet_groups)) or '-'})")
             area = _facet_measures(mesh.points, facets) * (thickness if d == 2 else 1.0)
+            if self.space is not None:
+                # P2 facet load: the integrals of the facet's P2 basis functions
+                p2_facets, shares = self.space.facet_load(facets, f"{name}.traction.{group}")
+                for c in range(d):
+                    np.add.at(f, p2_facets * d + c, area[:, None] * shares * vector[c])
+                continue
             for c in range(d):
                 # P1 facet load: each vertex gets 1/d of the facet's share (exact for a constant traction).
                 np.add.at(f, facets * d + c, np.repeat(area[:, None] / d, d, axis=1) * vector[c])
         for group, vector in force:
-            nodes = self._nodes(mesh, group, f"{name}.force.{group}", source)
+            nodes = self._nodes(nodes_of, group, f"{name}.force.{group}", source)
             for c in range(d):
                 f[nodes * d + c] += vector[c] / len(nodes)
         return f
@@ -138,12 +151,12 @@ def _facet_measures(points, facets):
 
 
 class FemModel:
-    """P1 elasticity with AT damage on a mesh, in the engine's protocol.
+    """Elasticity (P1 or P2 displacements) with AT damage on a mesh, in the engine's protocol.
 
     Parameters
     ----------
     mesh : Mesh
-    elasticity : fem3d.elasticity.Elasticity
+    elasticity : fem3d.elasticity.Elasticity or fem3d.quadratic_elasticity.QuadraticElasticity
         Built with the loads' constrained dofs.
     damage : fem3d.damage.DamageOperator
     loads : Loads
@@ -179,8 +192,9 @@ class FemModel:
 
         Without a split one linear solve. With a split (:mod:`fem3d.split`) the switch of
         each cell is frozen at the warm start's, the linear problem solved, the switch
-        updated from the solution, and so on until no cell switches (at most
-        :attr:`max_switch_solves` solves): for ``"amor"`` the semi-smooth Newton method of a
+        updated from the solution, and so on until no cell switches, or two solves in a row
+        lower the energy by less than 1e-12 of itself (at most :attr:`max_switch_solves`
+        solves): for ``"amor"`` the semi-smooth Newton method of a
         convex energy, each step halved until the energy decreases; for ``"positive"``, whose
         energy jumps across the switch, a fixed point that returns the iterate of least
         energy (the warm start itself if it is at this load and none does better), so that
@@ -212,9 +226,12 @@ class FemModel:
         here = u0 is not None and np.array_equal(np.asarray(u0)[el.constrained], values)
         previous = np.asarray(u0) if here else None
         best, best_energy = (previous, energy(previous)) if here else (None, np.inf)
+        stalled = 0
         for _ in range(self.max_switch_solves):
             u = self._solve_frozen(alpha, values, force, tension, u0 if previous is None else previous, rtol)
             e_u = energy(u)
+            # points whose trace hovers at 0 may keep switching while the energy no longer moves
+            stalled = stalled + 1 if e_u >= best_energy - 1e-12 * abs(best_energy) else 0
             if el.split == "amor" and previous is not None and e_u > best_energy:
                 # a semi-smooth Newton step is a descent direction of the convex energy: halve it
                 step = u - previous
@@ -229,7 +246,7 @@ class FemModel:
             if e_u <= best_energy:
                 best, best_energy = u, e_u
             previous, tension = u, new
-            if switched == 0:
+            if switched == 0 or stalled >= 2:
                 break
         return best
 

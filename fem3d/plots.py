@@ -24,7 +24,7 @@ from matplotlib.collections import PolyCollection
 from thinfilm.plots import ALPHA_CMAP, DPI, line_figure, plt, progress_note
 
 __all__ = ["force_displacement_figure", "crack_length_figure", "crack_surface_figure", "slice_polygons",
-           "alpha_slices_figure", "read_reference"]
+           "alpha_slices_figure", "read_reference", "crack_sections_figure"]
 
 #: Damage at which a node counts as broken in the figures.
 BROKEN = 0.9
@@ -212,3 +212,81 @@ def alpha_slices_figure(res, outdir, count=3):
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
     return path
+
+
+def crack_sections_figure(res, path, levels, xlim=None, ylim=None, step=None, width=None):
+    """The crack of a 3D run seen from above and on horizontal sections, with its trace.
+
+    The first panel: the broken nodes (alpha >= 0.9) seen from above, coloured by z; then the
+    damage on each plane ``z = level`` (exact sections, :func:`slice_polygons`) with the line
+    fitted to the broken nodes of the slab ``|z - level| <= width / 2`` and its angle
+    (:func:`fem3d.cracks.trace_angles`): a twisted crack's trace turns from one section to the
+    next (Brokenshire's torsion test, ``docs/cases.md#brokenshire-torsion``).
+
+    Parameters
+    ----------
+    res : Results
+        An open results file of a 3D run.
+    path : str or Path
+        The PNG to write.
+    levels : sequence of float
+        The sections' z.
+    xlim, ylim : (float, float), optional
+        The window drawn (default: the mesh's extent).
+    step : int, optional
+        The step drawn (default: the last finished one).
+    width : float, optional
+        The slabs' width for the fitted trace (default: the run's ``h``).
+
+    Returns
+    -------
+    Path
+    """
+    from fem3d.cracks import trace_angles
+
+    path = Path(path)
+    d = res.discretization
+    k = res.n - 1 if step is None else int(step)
+    alpha = res.field("alpha", k)
+    low, high = d.points.min(axis=0), d.points.max(axis=0)
+    xlim = (low[0], high[0]) if xlim is None else xlim
+    ylim = (low[1], high[1]) if ylim is None else ylim
+    width = float(res.parameters["h"]) if width is None else width
+    broken = alpha >= BROKEN
+    count = len(levels) + 1
+    fig, axes = plt.subplots(1, count, figsize=(3.4 * count, 3.9), layout="constrained", squeeze=False)
+    ax = axes[0][0]
+    order = np.argsort(d.points[broken, 2])
+    image = ax.scatter(d.points[broken, 0][order], d.points[broken, 1][order], c=d.points[broken, 2][order], s=2,
+                       cmap="viridis")
+    ax.set_title(f"alpha >= {BROKEN} from above", fontsize=9)
+    fig.colorbar(image, ax=ax, shrink=0.7, location="bottom", label="z")
+    for ax, (level, angle, _, _) in zip(axes[0][1:], trace_angles(d.points, alpha, levels, width)):
+        polygons, means = slice_polygons(d.points, d.cells, alpha, 2, level)
+        keep = [i for i, q in enumerate(polygons) if xlim[0] <= q[0, 0] <= xlim[1] and ylim[0] <= q[0, 1] <= ylim[1]]
+        collection = PolyCollection([polygons[i] for i in keep], array=means[keep], cmap=ALPHA_CMAP,
+                                    edgecolors="face", linewidths=0.1)
+        collection.set_clim(0.0, 1.0)
+        ax.add_collection(collection)
+        title = f"z = {level:.4g}"
+        slab = broken & (np.abs(d.points[:, 2] - level) <= width / 2)
+        if np.isfinite(angle):
+            centre = d.points[slab, :2].mean(axis=0)
+            direction = np.array([np.cos(np.radians(angle)), np.sin(np.radians(angle))])
+            ends = centre + np.outer([-1.0, 1.0], direction) * max(np.ptp(xlim), np.ptp(ylim))
+            ax.plot(ends[:, 0], ends[:, 1], "--", color="tab:cyan", lw=1.0)
+            title += f": trace {angle:.0f} deg"
+        ax.set_title(title, fontsize=9)
+    for ax in axes[0]:
+        ax.set_xlim(*xlim)
+        ax.set_ylim(*ylim)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x")
+        ax.set_ylabel("y")
+    fig.colorbar(collection, ax=axes[0][1:].tolist(), shrink=0.7, location="bottom", label=r"damage $\alpha$")
+    fig.suptitle(f"crack at t = {res.t[k]:.4g}: from above and on sections z = const{progress_note(res)}",
+                 fontsize=10)
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+

@@ -19,6 +19,7 @@ the whole slab, not per unit thickness. ::
     undamaged = ["gray"]    # regions (cell groups) where alpha is held at 0
     buffers = {top = 25.85} # regions of their own Young's modulus, alpha held at 0 there
     split = "none"          # energy the damage degrades: "none" (4.10), "amor" (4.11), "positive" (4.12)
+    element = "P1"          # displacement element: "P1" or "P2" (quadratic; the damage stays P1)
 
     [geometry]
     kind = "lpanel"         # "lpanel", "three_point_bending" or "file" (with file = "x.msh")
@@ -56,8 +57,9 @@ __all__ = ["FemModelParameters", "Geometry", "MeshSizes", "Loading", "FemScene",
 #: Geometry kinds: the function that meshes each (``"module:function"``, called with ``h``,
 #: ``h_coarse`` and the scene's keys), the model dimensions it makes, and its own scene keys
 #: (all optional, with the function's defaults), each ``key: (type, argument)``. Types:
-#: ``"number"`` (>= 0), ``"numbers:N"`` (a list of N finite numbers), ``("a", "b")`` (one of
-#: these strings). A function whose first parameter is ``dim`` also receives ``model.dim``.
+#: ``"number"`` (> 0), ``"number>=0"`` (>= 0), ``"numbers:N"`` (a list of N finite numbers),
+#: ``("a", "b")`` (one of these strings). A function whose first parameter is ``dim`` also
+#: receives ``model.dim``.
 GEOMETRIES = {
     "lpanel": ("fem3d.geometry:lpanel", (2, 3),
                {"refine": ("numbers:4", "refine"), "window": ("numbers:4", "window"), "load": ("numbers:2", "load"),
@@ -65,9 +67,22 @@ GEOMETRIES = {
     "three_point_bending": ("fem3d.geometry:three_point_bending", (2,),
                             {"configuration": (("I", "II"), "configuration"), "refine": ("numbers:4", "refine"),
                              "notch_width": ("number", "notch_width"), "gray": ("number", "gray")}),
+    "nooru_mohamed": ("fem3d.nooru_mohamed:nooru_mohamed", (2,),
+                      {"refine": ("numbers:4", "refine"), "platen": ("number", "platen"), "arm": ("number", "arm"),
+                       "symmetry": (("none", "half_turn"), "symmetry")}),
+    "brokenshire": ("fem3d.brokenshire:brokenshire", (3,),
+                    {"length": ("number", "length"), "notch_angle": ("number", "notch_angle"),
+                     "notch_depth": ("number", "notch_depth"), "notch_width": ("number", "notch_width"),
+                     "lever": ("number", "lever"), "band": ("number", "refine"), "gray": ("number", "gray")}),
+    "double_torsion": ("fem3d.double_torsion:double_torsion", (3,),
+                       {**{key: ("number", key) for key in ("length", "width", "thickness", "support", "notch",
+                                                            "notch_width", "strip", "grading")},
+                        **{key: ("number>=0", key) for key in ("load_offset", "crack", "buffer", "gray")}}),
     "file": (None, (2, 3), {"file": ("file", "file")}),
 }
 COMPONENTS = ("x", "y", "z")
+#: Displacement elements (``[model] element``).
+ELEMENTS = ("P1", "P2")
 
 
 @dataclass(frozen=True)
@@ -97,6 +112,9 @@ class FemModelParameters:
         damage is also held at 0 (dissertation section 4.3).
     split : {"none", "amor", "positive"}
         The part of the strain energy the damage degrades (:mod:`fem3d.split`).
+    element : {"P1", "P2"}
+        The displacement's element (:mod:`fem3d.quadratic_elasticity` for P2); the damage is
+        P1 on the vertices either way.
     """
 
     dim: int
@@ -111,6 +129,7 @@ class FemModelParameters:
     undamaged: tuple
     buffers: tuple = ()
     split: str = "none"
+    element: str = "P1"
 
 
 @dataclass(frozen=True)
@@ -235,7 +254,7 @@ def _path(table, key):
 
 def _model(source, data):
     model = Table(source, "model", data["model"], ("kind", "dim", "E", "nu", "Gc", "eps", "k_res", "at", "plane",
-                                                   "thickness", "undamaged", "buffers", "split"))
+                                                   "thickness", "undamaged", "buffers", "split", "element"))
     dim = model.integer("dim", minimum=2)
     if dim not in (2, 3):
         model._fail("dim", dim, "must be 2 or 3")
@@ -256,7 +275,8 @@ def _model(source, data):
     return FemModelParameters(dim=dim, E=model.number("E", minimum=0), nu=nu, Gc=model.number("Gc", minimum=0),
                               eps=model.number("eps", minimum=0), k_res=model.number("k_res", minimum=0, default=1e-6),
                               at=at, plane=plane, thickness=thickness, undamaged=_names(model, "undamaged"),
-                              buffers=_buffers(model), split=model.choice("split", SPLITS, default="none"))
+                              buffers=_buffers(model), split=model.choice("split", SPLITS, default="none"),
+                              element=model.choice("element", ELEMENTS, default="P1"))
 
 
 def _buffers(model):
@@ -287,6 +307,8 @@ def _geometry(source, data, dim):
             continue
         if kind_of_value == "number":
             options[argument] = geometry.number(key, minimum=0)
+        elif kind_of_value == "number>=0":
+            options[argument] = geometry.number(key, minimum=0, exclusive=False)
         elif isinstance(kind_of_value, tuple):
             options[argument] = geometry.choice(key, kind_of_value)
         else:

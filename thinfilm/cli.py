@@ -63,15 +63,16 @@ def _overrides(args):
     import tomllib
 
     out = {}
+    source = getattr(args, "scene", None) or getattr(args, "scan", None) or "thinfilm"
     for item in args.overrides:
         key, sep, value = item.partition("=")
         key = key.strip()
         if not sep or not key:
-            raise SceneError(args.scene, None, f"--set {item}: must be KEY=VALUE, e.g. --set model.toughness=1.5")
+            raise SceneError(source, None, f"--set {item}: must be KEY=VALUE, e.g. --set model.toughness=1.5")
         try:
             out[key] = tomllib.loads(f"value = {value.strip()}")["value"]
         except tomllib.TOMLDecodeError:
-            raise SceneError(args.scene, key, f"--set {item}: the value must be a TOML value (a number, true/false,"
+            raise SceneError(source, key, f"--set {item}: the value must be a TOML value (a number, true/false,"
                              ' a "string" or an [array])') from None
     return out
 
@@ -162,9 +163,9 @@ def _scan(args):
     from thinfilm.scan.table import TableError, collect
 
     if args.collect is not None:
-        if args.scan is not None or args.resume or args.force or args.workers or args.scheduler:
+        if args.scan is not None or args.resume or args.force or args.workers or args.scheduler or args.overrides:
             raise ScanError(args.collect, None, "--collect DIR reads a scan directory alone: give no scan file"
-                            " and none of --resume, --force, --workers, --scheduler")
+                            " and none of --resume, --force, --workers, --scheduler, --set")
         try:
             table, figure, counts = collect(args.collect)
         except TableError as err:
@@ -179,7 +180,7 @@ def _scan(args):
                         " --scheduler the cluster's own workers run the scan")
     if args.workers is not None and args.workers < 1:
         raise ScanError(args.scan, None, f"--workers {args.workers}: must be an integer >= 1")
-    plan = load_plan(args.scan)  # every run's scene validated: nothing starts on a bad one
+    plan = load_plan(args.scan, _overrides(args))  # every run's scene validated: nothing starts on a bad one
     outdir = Path(args.out) if args.out else default_outdir(args.scan)
     if outdir.exists() and not outdir.is_dir():
         raise ScanError(args.scan, None, f"output path {outdir} exists and is not a directory (use --out DIR)")
@@ -198,7 +199,8 @@ def _scan(args):
             return EXIT_FAILED
         except KeyboardInterrupt:
             print(f"thinfilm: interrupted; the finished runs and steps are kept in {outdir}; continue with:"
-                  f" thinfilm scan {args.scan} --resume" + (f" --out {args.out}" if args.out else ""),
+                  f" thinfilm scan {args.scan} --resume" + (f" --out {args.out}" if args.out else "")
+                  + "".join(f" --set '{item}'" for item in args.overrides),
                   file=sys.stderr)
             return EXIT_INTERRUPTED
     return _scan_report(args, table, figure, counts)
@@ -270,6 +272,9 @@ def build_parser():
     scan.add_argument("--force", action="store_true", help="run every run again from nothing, overwriting DIR's runs")
     scan.add_argument("--collect", metavar="DIR", help="rebuild DIR/scan.csv and scan.png from the runs' files;"
                       " run nothing")
+    scan.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
+                      help="set a scene key in every run, as [set] does (value in TOML); repeatable. Give the"
+                      " same --set to --resume")
     scan.add_argument("--quiet", action="store_true", help="no progress bar and no report")
     scan.set_defaults(func=_scan)
     return parser

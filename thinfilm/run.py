@@ -76,6 +76,9 @@ class Setup:
         How the model's nodes are laid out (:mod:`thinfilm.discretization`).
     components : dict
         Values per node of ``u`` and ``alpha`` if not 1 (a vector displacement).
+    sizes : dict
+        Values per step of ``u`` or ``alpha`` if more than the nodes' (a P2 displacement's
+        edge midpoints follow its nodes' values: :class:`thinfilm.results.writer.ResultsWriter`).
     constant : dict
         Fields stored once in the results, ``{name: ndarray (n_nodes,)}``.
     groups : dict
@@ -94,6 +97,7 @@ class Setup:
     model: object
     discretization: object
     components: dict = field(default_factory=dict)
+    sizes: dict = field(default_factory=dict)
     constant: dict = field(default_factory=dict)
     groups: dict = field(default_factory=dict)
     guess: Callable | None = None
@@ -224,7 +228,7 @@ class EvolutionKind:
         writer = None
         try:
             writer = ResultsWriter(results, scene, self.parameters(scene), setup.discretization,
-                                   components=setup.components, observables=setup.observables,
+                                   components=setup.components, sizes=setup.sizes, observables=setup.observables,
                                    constant=setup.constant, groups=setup.groups, resume=resume)
             history = writer.history(all_alpha=scene.solver.backtrack.kind != "none") if resume else []
         except OSError as err:

@@ -38,6 +38,7 @@ backtracks, needs it rewritten (``thinfilm plot`` and the end of ``thinfilm run`
 
 from __future__ import annotations
 
+import math
 import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -103,7 +104,8 @@ def build_xdmf(res, reference):
             slab = ET.SubElement(attribute, "DataItem", ItemType="HyperSlab", Type="HyperSlab",
                                  Dimensions=_field_dims(dims, components))
             selection = ET.SubElement(slab, "DataItem", Dimensions="3 2", NumberType="UInt", Format="XML")
-            selection.text = f"{k} 0 1 1 1 {n_values}"
+            # the nodes' values: a P2 displacement's row goes on with its edge midpoints'
+            selection.text = f"{k} 0 1 1 1 {math.prod(dims) * components}"
             source = ET.SubElement(slab, "DataItem", Dimensions=f"{rows} {n_values}", NumberType="Float",
                                    Precision=str(ds.dtype.itemsize), Format="HDF")
             source.text = f"{reference}:/fields/{name}"

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from fem3d.release import energy_release_rate
+from tests.helpers import load_case
 
 
 def compliance_evolution(t, Gc=None):
@@ -50,3 +51,15 @@ def test_growth_below_da_min_is_merged_into_one_interval():
     for k, j in ((4, 1), (5, 2)):
         difference = (B[j] / t[j] + B[k] / t[k]) * (t[k] - t[j]) - (B[k] - B[j])
         assert G[k] == pytest.approx(difference / (A[k] - A[j]), rel=1e-12)
+
+
+def test_the_crack_front_of_each_geometry():
+    # a = S / (Gc width) + a0: the slab's thickness in 2D; in 3D the geometry's own depth and
+    # starter notch (its function's defaults unless the scene sets them); no G without a front
+    from fem3d.kind import crack_front
+
+    assert crack_front(load_case("lpanel")) == (100.0, 0.0)
+    assert crack_front(load_case("lpanel_3d")) == (100.0, 0.0)
+    assert crack_front(load_case("double_torsion")) == (3.0, 7.0)
+    assert crack_front(load_case("double_torsion", {"geometry.thickness": 2.5, "geometry.notch": 10.0})) == (2.5, 10.0)
+    assert crack_front(load_case("brokenshire")) == ("none", 0.0)

@@ -94,3 +94,16 @@ def test_every_metric_of_a_film_run_reads_its_files(spacing_scan):
     assert got["surface_at_t_max"] == pytest.approx(got["cracks_at_t_max"] * 1.0, rel=0.1)   # G/a = 1 per crack
     assert got["iterations"] == steps["iterations"].sum() and got["steps_s"] == steps["time_total"].sum() > 0
     assert 0 < got["wall_s"] and math.isnan(compute(rundir / "missing", ["first_event_t"])["first_event_t"])
+
+
+def test_compliance_is_the_last_displacement_over_the_last_force(tmp_path):
+    import json
+
+    from thinfilm.scan.metrics import compute
+
+    steps = {"t": [0.0, 0.05, 0.1], "displacement": [0.0, 0.05, 0.1], "force": [0.0, 40.0, 80.0]}
+    (tmp_path / "summary.json").write_text(json.dumps({"events": [], "steps": steps}))
+    assert compute(tmp_path, ["compliance"])["compliance"] == 0.1 / 80.0
+    steps["force"][-1] = 0.0             # no force: no compliance, not an error
+    (tmp_path / "summary.json").write_text(json.dumps({"events": [], "steps": steps}))
+    assert math.isnan(compute(tmp_path, ["compliance"])["compliance"])

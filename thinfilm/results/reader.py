@@ -223,8 +223,12 @@ class Results:
 
     def field(self, name, k=None):
         """Field ``name`` of finished step ``k`` shaped on the discretization (a grid's
-        ``(ny+1, nx+1)``; a mesh's ``(n_nodes,)`` or ``(n_nodes, components)``)."""
-        return self.discretization.shaped(self.nodal(name, k), self.components(name))
+        ``(ny+1, nx+1)``; a mesh's ``(n_nodes,)`` or ``(n_nodes, components)``). A field stored
+        with more values (a P2 displacement, its edge midpoints' after its nodes') gives its
+        nodes' values."""
+        components = self.components(name)
+        values = self.nodal(name, k)
+        return self.discretization.shaped(values[: self.discretization.n_nodes * components], components)
 
     def close(self):
         self.file.close()

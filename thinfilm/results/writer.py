@@ -97,6 +97,11 @@ class ResultsWriter:
         Written to ``/grid`` or ``/mesh``.
     components : dict, optional
         Values per node of ``u`` and ``alpha`` (default 1 each; 2 or 3 for a vector ``u``).
+    sizes : dict, optional
+        Values per step of a field that holds more than ``n_nodes * components`` (a P2
+        displacement: its first ``n_nodes * components`` values are those of the nodes, what
+        the plots and XDMF read; the rest those of the edge midpoints); default
+        ``n_nodes * components``.
     observables : sequence of str, optional
         Names of the kind's own per-step values (e.g. a reaction force), stored in
         ``/steps/<name>`` beside the engine's records.
@@ -111,7 +116,7 @@ class ResultsWriter:
     """
 
     def __init__(self, path, scene, parameters, discretization, *, components=None, observables=(),
-                 constant=None, groups=None, resume=False):
+                 constant=None, groups=None, resume=False, sizes=None):
         self.path = Path(path)
         self.observables = tuple(observables)
         self.step_fields = STEP_FIELDS + self.observables
@@ -149,7 +154,7 @@ class ResultsWriter:
         n_nodes = discretization.n_nodes
         for name in ("u", "alpha"):
             c = (components or {}).get(name, 1)
-            n = n_nodes * c
+            n = (sizes or {}).get(name, n_nodes * c)
             ds = fields.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype=np.float64,
                                        chunks=(1, min(n, 1 << 20)))
             if c > 1:

@@ -114,6 +114,12 @@ def _fem_last(name):
     return lambda run: float(run.summary["steps"][name][-1])
 
 
+def _compliance(run):
+    steps = run.summary["steps"]
+    force = float(steps["force"][-1])
+    return float(steps["displacement"][-1]) / force if force != 0.0 else NAN
+
+
 def _steps_s(run):
     return float(np.sum(run.steps["time_total"]))
 
@@ -136,6 +142,8 @@ METRICS = {m.name: m for m in (
     Metric("peak_force", "largest reaction force on the loaded boundary", ("fem",), _peak("force")),
     Metric("t_at_peak_force", "load t at the largest reaction force", ("fem",), _t_at_peak_force),
     Metric("crack_length_at_t_max", "crack length at the last step", ("fem",), _fem_last("crack_length")),
+    Metric("compliance", "prescribed displacement over the reaction force at the last step (an elastic run's"
+           " load-point compliance)", ("fem",), _compliance),
     Metric("steps_s", "seconds spent in the load steps, summed (the same whether the run was resumed or not)",
            ("plate", "fem"), _steps_s),
     Metric("wall_s", "wall time of the run's last attempt, set-up and figures included (seconds)", None,

@@ -164,7 +164,7 @@ def _value_list(source, key, values):
     return values
 
 
-def parse_plan(text, source="<string>"):
+def parse_plan(text, source="<string>", overrides=None):
     """Validate scan text and build its runs.
 
     Parameters
@@ -173,6 +173,9 @@ def parse_plan(text, source="<string>"):
         TOML text of the scan file.
     source : str
         The scan file's path (``base`` is relative to its folder).
+    overrides : dict, optional
+        Dotted scene keys set in every run on top of ``[set]`` (``thinfilm scan --set``); a
+        varied key is refused.
 
     Returns
     -------
@@ -184,14 +187,14 @@ def parse_plan(text, source="<string>"):
         On any problem in the scan file or in any generated scene, in one line.
     """
     try:
-        return _parse(text, source)
+        return _parse(text, source, dict(overrides or {}))
     except ScanError:
         raise
     except SceneError as err:  # from the table getters: the same line, as a scan's error
         raise ScanError(err.source, err.key, err.detail) from None
 
 
-def _parse(text, source):
+def _parse(text, source, overrides):
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
@@ -212,6 +215,10 @@ def _parse(text, source):
         lengths = ", ".join(f"{k}: {len(v)}" for k, v in lists.items())
         raise ScanError(source, "vary", f'mode = "zip" needs lists of one length ({lengths})')
     fixed = _table(source, data, "set")
+    for key in overrides:
+        if key in lists:
+            raise ScanError(source, None, f"--set {key}: the key is varied in [vary]; it cannot also be set")
+    fixed = {**fixed, **overrides}
     both = sorted(set(fixed) & set(lists))
     if both:
         raise ScanError(source, f"set.{both[0]}", "is also varied in [vary]: give it in one of the two")
@@ -263,8 +270,8 @@ def _parse(text, source):
                     keys=keys + ((seed_key,) if seed_key else ()), seed=seed_key, metrics=tuple(metrics), runs=tuple(runs))
 
 
-def load_plan(path):
-    """Read and validate a scan file (:func:`parse_plan`).
+def load_plan(path, overrides=None):
+    """Read and validate a scan file (:func:`parse_plan`), with ``overrides`` set in every run.
 
     Raises
     ------
@@ -272,4 +279,4 @@ def load_plan(path):
         If the file cannot be read or the scan is not valid.
     """
     text = read_text(path, "scan file", ScanError)
-    return parse_plan(text, source=str(path))
+    return parse_plan(text, source=str(path), overrides=overrides)
