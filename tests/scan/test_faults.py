@@ -180,7 +180,10 @@ def test_ctrl_c_stops_the_scan_cleanly_with_status_130(spacing_scan, tmp_path):
     plan = spacing_scan[0]
     out = tmp_path / "scan"
     command = [sys.executable, "-m", "thinfilm", "scan", str(SPACING), "--out", str(out), "--workers", "1"]
+    # a terminal's foreground job: SIGINT at its default, whatever this process inherited (a
+    # shell's background job, as CI may run the suite, starts with SIGINT ignored)
     scan = subprocess.Popen(command, cwd=ROOT, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
                             text=True)
     try:
         wait_for_a_run_midway(out, plan, steps=5)

@@ -1,0 +1,127 @@
+"""The correction-factor scan (the dissertation's Figs. 4.12 and 4.13, FEM_MODEL 6.6-6.7): the
+energy release rate and the correction factor psi(a) of the eight non-dimensional
+double-torsion plates of ``cases/scans/double_torsion_correction.toml``.
+
+For each run (its ``results.h5`` and the scan's ``run.json`` alone), at every step where the
+crack grew by at least one mesh size:
+
+* ``a = S / (Gc T) + a0`` (a0 = 0.1 L) and ``G`` from (4.17) (:mod:`fem3d.release`);
+* the classical (4.2) at the run's force, ``G_42 = 3 P^2 Wm^2 (1 + nu) / (W T^4 E)``;
+* ``psi_sim = G_42 / G``: in Fuller's convention ``G = G_42 / psi``, below 1 for a specimen
+  more compliant than two torsion bars; and ``psi_1 = G_42 / Gc`` (taking G = Gc, the
+  dissertation's reading of its propagation; the two differ by G/Gc).
+
+The collapse of Fig. 4.13: for each L/W, the largest relative spread (max - min over mean)
+of psi_sim among W/T = 9..12 on a common grid of ``0.2 <= a/L <= 0.6``.
+
+Usage (from the repository root)::
+
+    python -m studies.double_torsion_correction.analyze cases/scans/double_torsion_correction
+
+Writes ``studies/double_torsion_correction/results/psi.csv``, ``collapse.md`` and
+``correction.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from fem3d import torsion_theory  # noqa: E402
+from fem3d.release import energy_release_rate  # noqa: E402
+from thinfilm.results.reader import Results  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+L, A0, NU, E, GC = 1.0, 0.1, 0.22, 1.0, 1.0
+
+
+def curves(scan):
+    """One dict per finished run: its geometry and the arrays a, G, P, psi_sim, psi_1."""
+    out = []
+    for run in sorted((Path(scan) / "runs").iterdir()):
+        if not (run / "summary.json").exists():
+            continue
+        o = json.loads((run / "run.json").read_text())["overrides"]
+        W, T, Wm = o["geometry.width"], o["geometry.thickness"], o["geometry.support"]
+        with Results(run / "results.h5") as res:
+            t = np.asarray(res.t)
+            G, a = energy_release_rate(t, res.steps["elastic"], res.steps["surface"], GC, T, a0=A0,
+                                       da_min=float(res.parameters["h"]))
+            P = np.asarray(res.steps["force"])
+        G42 = torsion_theory.release_rate(P, E, NU, W, T, Wm)
+        grew = np.isfinite(G) & (a > A0 + 0.02 * L)
+        out.append({"L/W": round(L / W), "W/T": round(W / T), "W": W, "T": T, "a": a[grew], "G": G[grew],
+                    "P": P[grew], "psi_sim": G42[grew] / G[grew], "psi_1": G42[grew] / GC,
+                    "fuller_2T/W": torsion_theory.psi(W, T, "2T/W"), "fuller_T/W": torsion_theory.psi(W, T, "T/W")})
+    return out
+
+
+def collapse(group):
+    """Largest relative spread of psi_sim among the runs of one L/W over 0.2 <= a/L <= 0.6."""
+    grid = np.linspace(0.2, 0.6, 41) * L
+    rows = []
+    for c in group:
+        order = np.argsort(c["a"])
+        a, psi = c["a"][order], c["psi_sim"][order]
+        inside = (grid >= a.min()) & (grid <= a.max())
+        rows.append(np.where(inside, np.interp(grid, a, psi), np.nan))
+    values = np.array(rows)
+    covered = np.all(np.isfinite(values), axis=0)
+    if not covered.any():
+        return np.nan, 0.0
+    v = values[:, covered]
+    return float(np.max((v.max(axis=0) - v.min(axis=0)) / v.mean(axis=0))), float(covered.mean())
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("scan", type=Path)
+    parser.add_argument("--out", type=Path, default=HERE / "results")
+    args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    found = curves(args.scan)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True)
+    lines = ["| L/W | runs | largest spread of psi_sim over W/T = 9..12, 0.2 <= a/L <= 0.6 | part of the window"
+             " covered by all runs |", "|---|---|---|---|"]
+    with open(args.out / "psi.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["L/W", "W/T", "a", "G", "P", "psi_sim", "psi_1"])
+        for c in found:
+            for k in range(c["a"].size):
+                w.writerow([c["L/W"], c["W/T"], f"{c['a'][k]:.6g}", f"{c['G'][k]:.6g}", f"{c['P'][k]:.6g}",
+                            f"{c['psi_sim'][k]:.6g}", f"{c['psi_1'][k]:.6g}"])
+    for col, ratio in enumerate((2, 3)):
+        group = [c for c in found if c["L/W"] == ratio]
+        spread, covered = collapse(group)
+        lines.append(f"| {ratio} | {len(group)} | {spread:.3f} | {covered:.2f} |")
+        for c in group:
+            order = np.argsort(c["a"])
+            label = f"W/T = {c['W/T']}"
+            axes[0, col].plot(c["a"][order] / L, c["G"][order] / GC, ".-", ms=3, label=label)
+            line, = axes[1, col].plot(c["a"][order] / L, c["psi_sim"][order], ".-", ms=3, label=label)
+            axes[1, col].axhline(c["fuller_2T/W"], color=line.get_color(), lw=0.6, ls=":")
+        axes[0, col].axhline(1.0, color="k", lw=0.8)
+        axes[0, col].set_ylim(0, 1.4)
+        axes[0, col].set_title(f"L/W = {ratio}: G / Gc from (4.17) (Fig. 4.12)", fontsize=9)
+        axes[1, col].set_title(f"L/W = {ratio}: psi_sim = G_(4.2)(P) / G (Fig. 4.13; dotted: Fuller 2T/W)",
+                               fontsize=9)
+        axes[1, col].axvspan(0.2, 0.6, color="0.92")
+        axes[1, col].set_xlabel("a / L")
+        for ax in axes[:, col]:
+            ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(args.out / "correction.png", dpi=130)
+    (args.out / "collapse.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
