@@ -260,3 +260,28 @@ def test_p2_compliance_is_fuller_2t_over_w_and_above_p1(coarse):
     assert abs(slope - arm) < 0.25 * abs(slope - printed)   # measured 0.17: far nearer 2T/W than T/W
     assert all(p1[0] < p2 for p1, p2 in zip((coarse[0], coarse[-1]), C))
     assert slopes([run[0] for run in coarse]).mean() < slope
+
+
+def test_fracture_case_coarse_releases_the_toughness(tmp_path):
+    # The fracture case (double_torsion.toml, (4.11) with a T/3 buffer of E/1e3) on a coarse
+    # mesh (two tetrahedra through T, eps = T): the crack starts at the notch and grows stably,
+    # and G from (4.17) equals Gc within 1 % at every step of growth once the crack has left
+    # the notch by eps, the width over which its front forms (the step before: 0.91 Gc; the
+    # dissertation's Fig. 4.12 asks 5 %; the case's finer runs: 0.3 %, docs/cases.md).
+    from fem3d.release import energy_release_rate
+    from thinfilm.results.reader import Results
+    from thinfilm.run import run
+
+    scene = load_case("double_torsion", {"mesh.h": 1.5, "mesh.h_coarse": 1.5, "model.eps": 3.0, "geometry.strip": 6.0,
+                                         "geometry.buffer": 1.0, "model.buffers.buffer": 72.0,
+                                         "load.t_max": None, "load.steps": None,
+                                         "load.t": [0.0, 0.02, 0.025, 0.03, 0.035, 0.04, 0.045], "output": None})
+    run(scene, tmp_path)
+    with Results(tmp_path / "results.h5") as res:
+        G, a = energy_release_rate(res.t, res.steps["elastic"], res.steps["surface"], 0.0068, 3.0, a0=A0, da_min=1.5)
+        force = np.asarray(res.steps["force"])
+    assert a[-1] > A0 + 5.0                       # it grew from the notch
+    assert np.all(np.diff(force[1:]) > 0)         # stably: the force still rises
+    grown = np.isfinite(G) & (a > A0 + scene.model.eps)
+    assert grown.sum() >= 3
+    np.testing.assert_allclose(G[grown] / 0.0068, 1.0, atol=0.01)
