@@ -68,7 +68,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from fem3d.geometry import TET_EDGE_RATIO, _box_field, _check_nonnegative, _check_positive, _read_model, _session
+from fem3d.geometry import (TET_EDGE_RATIO, _box_field, _check_nonnegative, _check_positive, _check_sizes, _read_model,
+                            _session)
 from fem3d.mesh import Mesh
 
 __all__ = ["double_torsion", "TABLE_4_1", "GRADING"]
@@ -143,11 +144,7 @@ def double_torsion(h=0.5, h_coarse=1.0, length=TABLE_4_1["L"], width=TABLE_4_1["
     ValueError
         Naming the parameter, if a value is out of range.
     """
-    h = _check_positive("h", h)
-    h_coarse = _check_positive("h_coarse", h_coarse)
-    if h_coarse < h:
-        raise ValueError(f"double_torsion: h_coarse = {h_coarse!r} must be >= h = {h!r}")
-    grading = _check_positive("grading", grading)
+    h, h_coarse, grading = _check_sizes(h, h_coarse, grading)
     L, W, T = (_check_positive(name, v) for name, v in (("length", length), ("width", width),
                                                           ("thickness", thickness)))
     Wm = _check_positive("support", support)

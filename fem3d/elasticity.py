@@ -174,6 +174,12 @@ class Elasticity:
                  k_res: float = 1e-6, constrained=None, modulus=None, split: str = "none"):
         self.grads, self.measure = mesh_geometry(mesh)
         self.mesh = mesh
+        self._set_material(E, nu, plane, thickness, k_res, modulus, split)
+        self._set_dofs(mesh.cells, mesh.points, constrained)
+
+    def _set_material(self, E, nu, plane, thickness, k_res, modulus, split):
+        """Check and store the material, the model and each cell's modulus (on :attr:`mesh`)."""
+        mesh = self.mesh
         self.dim = d = mesh.dim
         self.E = real_in_range("E", E, 0.0, math.inf, low_open=True)
         self.nu = real_in_range("nu", nu, -1.0, 0.5, low_open=True)
@@ -197,7 +203,15 @@ class Elasticity:
             raise ValueError("modulus must be positive and finite in every cell")
         self.modulus.flags.writeable = False
 
-        n_dofs = d * mesh.n_nodes
+    def _set_dofs(self, cells, points, constrained):
+        """The displacement's dofs on the nodes ``points`` of ``cells`` (the mesh's for P1,
+        the P2 nodes for :class:`fem3d.quadratic_elasticity.QuadraticElasticity`): free and
+        constrained dofs, the CSR pattern of ``K_ff`` with each cell's offsets, and the cells
+        with a constrained dof."""
+        d = self.dim
+        self._node_points = points
+        n_nodes = points.shape[0]
+        n_dofs = d * n_nodes
         con = np.zeros(0, dtype=np.int64) if constrained is None else _index_array("constrained", constrained, n_dofs)
         mask = np.ones(n_dofs, dtype=bool)
         mask[con] = False
@@ -213,25 +227,25 @@ class Elasticity:
 
         if self._free.size >= 2**31:
             raise ValueError(f"{self._free.size} free dofs: more than the int32 column indices hold")
-        node_indptr, node_indices = kernels.node_graph(mesh.cells, mesh.n_nodes)
+        node_indptr, node_indices = kernels.node_graph(cells, n_nodes)
         indptr, indices, entry_offset = kernels.free_pattern(node_indptr, node_indices, self._free_index, d,
                                                              self._free.size)
-        self._offsets = kernels.cell_offsets(mesh.cells, node_indptr, node_indices, entry_offset)
+        self._offsets = kernels.cell_offsets(cells, node_indptr, node_indices, entry_offset)
         self._indptr = indptr  # int64, for the kernel; the matrix may hold int32 copies
         n = self._free.size
         self._matrix = sp.csr_matrix((np.zeros(indices.size), indices, indptr), shape=(n, n))
         self._matrix.has_sorted_indices = True
         self.nnz = int(indices.size)
         # cells with a constrained dof: the only ones in K_fd and in the constrained rows
-        node_con = np.zeros(mesh.n_nodes, dtype=bool)
+        node_con = np.zeros(n_nodes, dtype=bool)
         node_con[con // d] = True
-        self._boundary_cells = np.flatnonzero(node_con[mesh.cells].any(axis=1)).astype(np.int64)
+        self._boundary_cells = np.flatnonzero(node_con[cells].any(axis=1)).astype(np.int64)
 
     # --- sizes and dofs -----------------------------------------------------------------------
     @property
     def n_dofs(self) -> int:
-        """Number of displacement dofs, ``d * n_nodes``."""
-        return self.dim * self.mesh.n_nodes
+        """Number of displacement dofs, ``d`` per node of the displacement."""
+        return self.dim * self._node_points.shape[0]
 
     @property
     def free(self) -> np.ndarray:
@@ -280,25 +294,60 @@ class Elasticity:
         return kernels.cell_degradation(alpha, self.mesh.cells, self.k_res)
 
     def tension(self, u) -> np.ndarray:
-        """Each cell's switch ``H(tr e)`` at the displacement ``u``: True where the cell is
-        in tension, shape (n_cells,)."""
+        """The switch ``H(tr e)`` at every point of the displacement ``u``: True where it is in
+        tension, shape (n_cells,) (P1: each cell)."""
         return splits.tension(self.strain(u), self.dim)
 
-    def lame(self, alpha, tension=None) -> tuple[np.ndarray, np.ndarray]:
-        """Each cell's effective Lame parameters ``(lam_e, mu_e)``, shape (n_cells,) each: its
-        degradation and split with the switch frozen at ``tension`` (None: every cell in
-        tension, the whole density degraded), times its modulus
-        (:func:`fem3d.split.effective_lame`)."""
-        lam, mu = splits.effective_lame(self.degradation(alpha), tension, self.lam, self.mu, self.dim, self.split)
-        return lam * self.modulus, mu * self.modulus
+    # --- the points where the stiffness is evaluated ---------------------------------------
+    # P1: one per cell (the strain is constant there). A higher-order element overrides these
+    # three and the two kernel calls below; everything else is written once, here.
+    @property
+    def _point_shape(self):
+        """Shape of a quantity given at every point: (n_cells,)."""
+        return (self.mesh.n_cells,)
 
-    def _cell_lame(self, alpha, tension, lame):
+    def _at_points(self, per_cell):
+        """A per-cell quantity, shape (n_cells,), at every point (P1: itself)."""
+        return per_cell
+
+    def cell_mean(self, values) -> np.ndarray:
+        """The mean over each cell of a quantity given at every point, shape (n_cells,) (P1: the
+        cell's own value)."""
+        return self._pointwise("values", values)
+
+    def _pointwise(self, name, x):
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        if x.shape != self._point_shape:
+            raise ValueError(f"{name} must have shape {self._point_shape}, got {x.shape}")
+        return x
+
+    def lame(self, alpha, tension=None) -> tuple[np.ndarray, np.ndarray]:
+        """The effective Lame parameters ``(lam, mu)`` at every point (P1: each cell, shape
+        (n_cells,) each): the cell's degradation and the split with the switch frozen at
+        ``tension`` (None: every point in tension, the whole density degraded), times the
+        cell's modulus (:func:`fem3d.split.effective_lame`)."""
+        lam, mu = splits.effective_lame(self._at_points(self.degradation(alpha)), tension, self.lam, self.mu,
+                                        self.dim, self.split)
+        modulus = self._at_points(self.modulus)
+        return lam * modulus, mu * modulus
+
+    def _point_lame(self, alpha, tension, lame):
         if lame is None:
             return self.lame(alpha, tension)
         if alpha is not None or tension is not None:
             raise ValueError("give alpha (and tension) or lame, not both")
         lam, mu = lame
-        return self._vector("lame[0]", lam, self.mesh.n_cells), self._vector("lame[1]", mu, self.mesh.n_cells)
+        return self._pointwise("lame[0]", lam), self._pointwise("lame[1]", mu)
+
+    def _stiffness_values(self, lam, mu):
+        """Write ``K_ff``'s values for the points' Lame parameters (the element's kernel)."""
+        kernels.stiffness_values(self.grads, self.measure, self.mesh.cells, lam, mu, self.thickness,
+                                 self._free_index, self._indptr, self._offsets, self._matrix.data)
+
+    def _boundary_product(self, lam, mu, row_index, col_index, x, sign, out):
+        """``out[row_index[i]] += sign (K_e x)_i`` over the cells with a constrained dof."""
+        kernels.boundary_product(self.grads, self.measure, self.mesh.cells, self._boundary_cells, lam, mu,
+                                 self.thickness, row_index, col_index, x, sign, out)
 
     # --- the linear system --------------------------------------------------------------------
     def matrix(self, alpha, *, tension=None, lame=None) -> sp.csr_matrix:
@@ -324,9 +373,7 @@ class Elasticity:
         K_ff : scipy.sparse.csr_matrix, shape (n_free, n_free)
             Units of ``E`` times length (force per displacement).
         """
-        lam, mu = self._cell_lame(alpha, tension, lame)
-        kernels.stiffness_values(self.grads, self.measure, self.mesh.cells, lam, mu, self.thickness,
-                                 self._free_index, self._indptr, self._offsets, self._matrix.data)
+        self._stiffness_values(*self._point_lame(alpha, tension, lame))
         return self._matrix
 
     def rhs(self, alpha, u_constrained, f=None, *, tension=None, lame=None) -> np.ndarray:
@@ -347,12 +394,11 @@ class Elasticity:
         ndarray, shape (n_free,)
             Force.
         """
-        lam, mu = self._cell_lame(alpha, tension, lame)
+        lam, mu = self._point_lame(alpha, tension, lame)
         u_d = np.ascontiguousarray(np.broadcast_to(np.asarray(u_constrained, dtype=np.float64),
                                                    self._constrained.shape))
         out = np.zeros(self._free.size) if f is None else self._vector("f", f, self.n_dofs)[self._free].copy()
-        kernels.boundary_product(self.grads, self.measure, self.mesh.cells, self._boundary_cells, lam, mu,
-                                 self.thickness, self._free_index, self._con_index, u_d, -1.0, out)
+        self._boundary_product(lam, mu, self._free_index, self._con_index, u_d, -1.0, out)
         return out
 
     def reactions(self, alpha, u, f=None, *, lame=None) -> np.ndarray:
@@ -382,10 +428,9 @@ class Elasticity:
         """
         u = self._vector("u", u, self.n_dofs)
         tension = None if (lame is not None or self.split == "none") else self.tension(u)
-        lam, mu = self._cell_lame(alpha, tension, lame)
+        lam, mu = self._point_lame(alpha, tension, lame)
         out = np.zeros(self._constrained.size)
-        kernels.boundary_product(self.grads, self.measure, self.mesh.cells, self._boundary_cells, lam, mu,
-                                 self.thickness, self._con_index, self._dof_index, u, 1.0, out)
+        self._boundary_product(lam, mu, self._con_index, self._dof_index, u, 1.0, out)
         if f is not None:
             out -= self._vector("f", f, self.n_dofs)[self._constrained]
         return out
@@ -404,8 +449,8 @@ class Elasticity:
         e = self.strain(u)
         d = self.dim
         s = 2.0 * self.mu * e
-        s[:, :d] += self.lam * e[:, :d].sum(axis=1, keepdims=True)
-        return s * self.modulus[:, None]
+        s[..., :d] += self.lam * e[..., :d].sum(axis=-1, keepdims=True)
+        return s * self._at_points(self.modulus)[..., None]
 
     def strain_energy_density(self, u) -> np.ndarray:
         """Undamaged strain-energy density ``psi_e = 1/2 e:C_e:e`` of each cell (its own modulus),
@@ -414,23 +459,25 @@ class Elasticity:
                                              self.lam, self.mu) * self.modulus
 
     def energy_parts(self, u) -> tuple[np.ndarray, np.ndarray]:
-        """``(psi_plus, psi_minus)`` of each cell: the part of its density the damage degrades
-        and the part it leaves intact (:func:`fem3d.split.energy_parts`), each cell's modulus
-        included, shape (n_cells,) each (energy per volume)."""
+        """``(psi_plus, psi_minus)`` at every point (P1: each cell, shape (n_cells,) each): the
+        part of the density the damage degrades and the part it leaves intact
+        (:func:`fem3d.split.energy_parts`), each cell's modulus included (energy per volume)."""
         plus, minus = splits.energy_parts(self.strain(u), self.lam, self.mu, self.dim, self.split)
-        return plus * self.modulus, minus * self.modulus
+        modulus = self._at_points(self.modulus)
+        return plus * modulus, minus * modulus
 
     def nodal_energy(self, u) -> np.ndarray:
         """The nodal energy ``c_i = T sum_{e ni i} |e| psi_plus_e / (d + 1)``, shape (n_nodes,)
         (energy): ``P(u, alpha) = sum_i c_i g(alpha_i) + T sum_e |e| psi_minus_e``, whose
         first part alone depends on the damage."""
         out = np.empty(self.mesh.n_nodes)
-        kernels.nodal_energy(self.energy_parts(u)[0], self.measure, self.mesh.cells, self.thickness, out)
+        kernels.nodal_energy(self.cell_mean(self.energy_parts(u)[0]), self.measure, self.mesh.cells, self.thickness,
+                             out)
         return out
 
     def elastic_energy(self, u, alpha) -> float:
         """``P(u, alpha) = T sum_e |e| (gbar_e psi_plus_e(u) + psi_minus_e(u))`` (energy)."""
-        plus, minus = self.energy_parts(u)
+        plus, minus = (self.cell_mean(part) for part in self.energy_parts(u))
         return float(self.thickness * (np.dot(self.measure * plus, self.degradation(alpha))
                                        + np.dot(self.measure, minus)))
 
@@ -446,9 +493,10 @@ class Elasticity:
         -------
         ndarray, shape (n_free, 3) in 2D, (n_free, 6) in 3D
         """
-        d, n = self.dim, self.mesh.n_nodes
-        x = self.mesh.points - self.mesh.points.mean(axis=0)
-        x = x / (float(np.ptp(self.mesh.points, axis=0).max()) or 1.0)
+        points = self._node_points
+        d, n = self.dim, points.shape[0]
+        x = points - points.mean(axis=0)
+        x = x / (float(np.ptp(points, axis=0).max()) or 1.0)
         B = np.zeros((n, d, 3 if d == 2 else 6))
         for a in range(d):
             B[:, a, a] = 1.0

@@ -38,6 +38,12 @@ AMG_MIN_DOFS_3D = 20_000
 AMG_OPTIONS = {"strength": ("symmetric", {"theta": 0.0}), "smooth": ("jacobi", {})}
 
 
+def geometry_function(kind):
+    """The function of :data:`fem3d.scene.GEOMETRIES` that meshes geometry ``kind``."""
+    module, name = fem_scene.GEOMETRIES[kind][0].split(":")
+    return getattr(importlib.import_module(module), name)
+
+
 def build_mesh(scene):
     """The scene's mesh (gmsh, deterministic), with its named groups."""
     from fem3d import geometry
@@ -49,8 +55,7 @@ def build_mesh(scene):
             raise SceneError(scene.source, "geometry.file", f"= {g.file!r}: a {mesh.dim}D mesh, but model.dim ="
                              f" {scene.model.dim}")
         return mesh
-    module, name = fem_scene.GEOMETRIES[g.kind][0].split(":")
-    function = getattr(importlib.import_module(module), name)
+    function = geometry_function(g.kind)
     options = dict(g.options)
     if next(iter(inspect.signature(function).parameters)) == "dim":
         options["dim"] = scene.model.dim
@@ -127,8 +132,7 @@ def crack_front(scene):
         return "mesh", 0.0
     if g.kind not in FRONTS:
         return "none", 0.0
-    module, name = fem_scene.GEOMETRIES[g.kind][0].split(":")
-    defaults = inspect.signature(getattr(importlib.import_module(module), name)).parameters
+    defaults = inspect.signature(geometry_function(g.kind)).parameters
     options = dict(g.options)
     width, start = FRONTS[g.kind]
 

@@ -282,13 +282,7 @@ class QuadraticSpace:
         KeyError
             If no group has that name.
         """
-        if name in self.facet_groups:
-            return np.unique(self.facet_groups[name])
-        if name in self.node_groups:
-            return np.unique(self.node_groups[name])
-        if name in self.cell_groups:
-            return np.unique(self.cells[self.cell_groups[name]])
-        raise KeyError(f"no group {name!r} in the mesh (groups: {self.group_names()})")
+        return Mesh.nodes_of(self, name)   # the same lookup, on this space's cells and groups
 
     def facet_load(self, facets, name="facets"):
         """``(nodes, shares)`` of the consistent load of a constant traction on ``facets``

@@ -56,27 +56,25 @@ about 1.4 times as long.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
-import scipy.sparse as sp
 
-from fem3d import kernels, quadratic_kernels as qk, split as splits
-from fem3d.elasticity import _index_array, lame_parameters, mesh_geometry
+from fem3d import quadratic_kernels as qk, split as splits
+from fem3d.elasticity import Elasticity, mesh_geometry
 from fem3d.mesh import Mesh
 from fem3d.quadratic import LOCAL_EDGES, STIFFNESS_RULES, QuadraticSpace
-from thinfilm.options import real_in_range
 
 __all__ = ["QuadraticElasticity"]
 
 
-class QuadraticElasticity:
+class QuadraticElasticity(Elasticity):
     """The elastic energy of the damaged solid with P2 displacements, and its u-problem.
 
-    The same interface as :class:`fem3d.elasticity.Elasticity`; the fields of the
-    displacement (``u``, dofs, loads) live on the P2 nodes (:attr:`space`), the damage on the
-    mesh's vertices, and per-cell quantities of P1 become per quadrature point
-    (shape (n_cells, n_q)).
+    :class:`fem3d.elasticity.Elasticity` with the P2 element: the fields of the displacement
+    (``u``, dofs, loads) live on the P2 nodes (:attr:`space`), the damage on the mesh's
+    vertices, and per-cell quantities of P1 become per quadrature point (shape (n_cells, n_q)).
+    What is written here is what the element changes: its nodes, its quadrature points, its
+    two kernels and its strain; the material, the dofs, the split, the energies and the
+    near-nullspace are P1's.
 
     Parameters
     ----------
@@ -117,202 +115,35 @@ class QuadraticElasticity:
         self.space = QuadraticSpace(mesh) if space is None else space
         if self.space.mesh is not mesh:
             raise ValueError("space must be the QuadraticSpace of mesh")
-        self.dim = d = mesh.dim
-        self.E = real_in_range("E", E, 0.0, math.inf, low_open=True)
-        self.nu = real_in_range("nu", nu, -1.0, 0.5, low_open=True)
-        self.k_res = real_in_range("k_res", k_res, 0.0, math.inf)
-        self.thickness = real_in_range("thickness", thickness, 0.0, math.inf, low_open=True)
-        if d == 2:
-            if plane not in ("stress", "strain"):
-                raise ValueError(f'plane = {plane!r} must be "stress" or "strain"')
-            self.plane = plane
-        else:
-            if self.thickness != 1.0:
-                raise ValueError(f"thickness = {thickness!r} must be 1 for a 3D mesh (energies and forces are"
-                                 " those of the solid itself)")
-            self.plane = None
-        self.lam, self.mu = lame_parameters(self.E, self.nu, self.plane)
-        if split not in splits.SPLITS:
-            raise ValueError(f"split = {split!r} must be one of {', '.join(splits.SPLITS)}")
-        self.split = split
-        self.modulus = (np.ones(mesh.n_cells) if modulus is None
-                        else np.array(self._vector("modulus", modulus, mesh.n_cells)))
-        if not (np.all(np.isfinite(self.modulus)) and np.all(self.modulus > 0)):
-            raise ValueError("modulus must be positive and finite in every cell")
-        self.modulus.flags.writeable = False
-        self.bary, self.weights = (np.ascontiguousarray(a) for a in STIFFNESS_RULES[d])
+        self._set_material(E, nu, plane, thickness, k_res, modulus, split)
+        self.bary, self.weights = (np.ascontiguousarray(a) for a in STIFFNESS_RULES[self.dim])
         self.n_q = int(self.weights.size)
-        self._local_edges = LOCAL_EDGES[d]
-        cells = self.space.cells
+        self._local_edges = LOCAL_EDGES[self.dim]
+        self._set_dofs(self.space.cells, self.space.points, constrained)
 
-        n_nodes = self.space.n_nodes
-        n_dofs = d * n_nodes
-        con = np.zeros(0, dtype=np.int64) if constrained is None else _index_array("constrained", constrained, n_dofs)
-        mask = np.ones(n_dofs, dtype=bool)
-        mask[con] = False
-        self._constrained = con
-        self._free = np.flatnonzero(mask).astype(np.int64)
-        self._free_index = np.full(n_dofs, -1, dtype=np.int64)
-        self._free_index[self._free] = np.arange(self._free.size)
-        self._con_index = np.full(n_dofs, -1, dtype=np.int64)
-        self._con_index[con] = np.arange(con.size)
-        self._dof_index = np.arange(n_dofs, dtype=np.int64)   # every dof its own column (reactions)
-        for a in (self._constrained, self._free):
-            a.flags.writeable = False
-
-        if self._free.size >= 2**31:
-            raise ValueError(f"{self._free.size} free dofs: more than the int32 column indices hold")
-        node_indptr, node_indices = kernels.node_graph(cells, n_nodes)
-        indptr, indices, entry_offset = kernels.free_pattern(node_indptr, node_indices, self._free_index, d,
-                                                             self._free.size)
-        self._offsets = kernels.cell_offsets(cells, node_indptr, node_indices, entry_offset)
-        self._indptr = indptr
-        n = self._free.size
-        self._matrix = sp.csr_matrix((np.zeros(indices.size), indices, indptr), shape=(n, n))
-        self._matrix.has_sorted_indices = True
-        self.nnz = int(indices.size)
-        node_con = np.zeros(n_nodes, dtype=bool)
-        node_con[con // d] = True
-        self._boundary_cells = np.flatnonzero(node_con[cells].any(axis=1)).astype(np.int64)
-
-    # --- sizes and dofs -----------------------------------------------------------------------
+    # --- the quadrature points ------------------------------------------------------------------
     @property
-    def n_dofs(self) -> int:
-        """Number of displacement dofs, ``d * n_nodes`` over the P2 nodes."""
-        return self.dim * self.space.n_nodes
+    def _point_shape(self):
+        return (self.mesh.n_cells, self.n_q)
 
-    @property
-    def free(self) -> np.ndarray:
-        """The free dofs, increasing, int64 (read-only), shape (n_free,)."""
-        return self._free
+    def _at_points(self, per_cell):
+        return np.repeat(np.asarray(per_cell)[:, None], self.n_q, axis=1)
 
-    @property
-    def constrained(self) -> np.ndarray:
-        """The constrained dofs, increasing, int64 (read-only), shape (n_constrained,)."""
-        return self._constrained
+    def cell_mean(self, values) -> np.ndarray:
+        """``sum_q w_q values[:, q]``: the mean over each cell of a quantity given at the
+        quadrature points (exact for a quadratic one), shape (n_cells,)."""
+        return self._pointwise("values", values) @ self.weights
 
-    def expand(self, u_free, u_constrained) -> np.ndarray:
-        """The full displacement (shape (n_dofs,)) from its free part (n_free,) and its
-        constrained part (n_constrained,) or a float, in the order of :attr:`constrained`."""
-        u = np.empty(self.n_dofs)
-        u[self._free] = self._vector("u_free", u_free, self._free.size)
-        u[self._constrained] = u_constrained
-        return u
-
-    # --- helpers ------------------------------------------------------------------------------
-    def _vector(self, name, x, size):
-        x = np.ascontiguousarray(x, dtype=np.float64)
-        if x.shape != (size,):
-            raise ValueError(f"{name} must have shape ({size},), got {x.shape}")
-        return x
-
-    def _points(self, name, x):
-        x = np.ascontiguousarray(x, dtype=np.float64)
-        if x.shape != (self.mesh.n_cells, self.n_q):
-            raise ValueError(f"{name} must have shape ({self.mesh.n_cells}, {self.n_q}), got {x.shape}")
-        return x
-
-    def degradation(self, alpha) -> np.ndarray:
-        """Cell degradation ``gbar_e``, the mean of ``(1 - alpha)^2 + k_res`` at the cell's
-        vertices, shape (n_cells,).
-
-        Parameters
-        ----------
-        alpha : ndarray, shape (n_vertices,)
-        """
-        alpha = self._vector("alpha", alpha, self.mesh.n_nodes)
-        return kernels.cell_degradation(alpha, self.mesh.cells, self.k_res)
-
-    def tension(self, u) -> np.ndarray:
-        """The split's switch ``H(tr e)`` at every quadrature point of ``u``, bool, shape
-        (n_cells, n_q)."""
-        return splits.tension(self.strain(u), self.dim)
-
-    def lame(self, alpha, tension=None) -> tuple[np.ndarray, np.ndarray]:
-        """The effective Lame parameters ``(lam_q, mu_q)`` at every quadrature point, shape
-        (n_cells, n_q) each: the cell's degradation ``gbar_e`` and the split with the switch
-        frozen at ``tension`` (None: every point in tension), times the cell's modulus
-        (:func:`fem3d.split.effective_lame`). Without a split ``gbar_e modulus_e (lam, mu)``."""
-        g = np.repeat(self.degradation(alpha)[:, None], self.n_q, axis=1)
-        if tension is not None:
-            tension = np.asarray(tension, dtype=bool)
-            if tension.shape != g.shape:
-                raise ValueError(f"tension must have shape {g.shape}, got {tension.shape}")
-        lam, mu = splits.effective_lame(g, tension, self.lam, self.mu, self.dim, self.split)
-        return lam * self.modulus[:, None], mu * self.modulus[:, None]
-
-    def _point_lame(self, alpha, tension, lame):
-        if lame is None:
-            return self.lame(alpha, tension)
-        if alpha is not None or tension is not None:
-            raise ValueError("give alpha (and tension) or lame, not both")
-        lam, mu = lame
-        return self._points("lame[0]", lam), self._points("lame[1]", mu)
-
-    # --- the linear system --------------------------------------------------------------------
-    def matrix(self, alpha, *, tension=None, lame=None) -> sp.csr_matrix:
-        """The free block ``K_ff(alpha)`` of the stiffness matrix.
-
-        The same ``csr_matrix`` is returned by every call, its ``data`` rewritten in place.
-        Sorted indices; symmetric bit for bit; positive definite when the constrained dofs
-        fix the rigid-body modes.
-
-        Parameters
-        ----------
-        alpha : ndarray, shape (n_vertices,)
-        tension : ndarray of bool, shape (n_cells, n_q), optional
-            The split's switch, frozen; None: every point in tension.
-        lame : (ndarray, ndarray), shape (n_cells, n_q) each, optional
-            Effective Lame parameters at the quadrature points (stress; degradation, split
-            and modulus included), in place of :meth:`lame`'s (then ``alpha`` must be None).
-
-        Returns
-        -------
-        K_ff : scipy.sparse.csr_matrix, shape (n_free, n_free)
-        """
-        lam, mu = self._point_lame(alpha, tension, lame)
+    def _stiffness_values(self, lam, mu):
         qk.stiffness_values(self.grads, self.measure, self.space.cells, self._local_edges, self.bary, self.weights,
                             lam, mu, self.thickness, self._free_index, self._indptr, self._offsets,
                             self._matrix.data)
-        return self._matrix
 
-    def rhs(self, alpha, u_constrained, f=None, *, tension=None, lame=None) -> np.ndarray:
-        """Right-hand side ``f_f - K_fd(alpha) u_d`` of the u-problem, shape (n_free,).
-
-        Parameters
-        ----------
-        alpha : ndarray, shape (n_vertices,)
-        u_constrained : ndarray, shape (n_constrained,), or float
-        f : ndarray, shape (n_dofs,), optional
-            Consistent nodal forces on the P2 nodes.
-        tension, lame : optional
-            See :meth:`matrix`.
-        """
-        lam, mu = self._point_lame(alpha, tension, lame)
-        u_d = np.ascontiguousarray(np.broadcast_to(np.asarray(u_constrained, dtype=np.float64),
-                                                   self._constrained.shape))
-        out = np.zeros(self._free.size) if f is None else self._vector("f", f, self.n_dofs)[self._free].copy()
+    def _boundary_product(self, lam, mu, row_index, col_index, x, sign, out):
         qk.boundary_product(self.grads, self.measure, self.space.cells, self._local_edges, self.bary, self.weights,
-                            self._boundary_cells, lam, mu, self.thickness, self._free_index, self._con_index, u_d,
-                            -1.0, out)
-        return out
+                            self._boundary_cells, lam, mu, self.thickness, row_index, col_index, x, sign, out)
 
-    def reactions(self, alpha, u, f=None, *, lame=None) -> np.ndarray:
-        """The residual ``K(alpha) u - f`` on the constrained dofs (force, shape
-        (n_constrained,)): the forces the supports exert on the body. With a split, ``K`` is
-        that of ``u``'s own switch. See :meth:`fem3d.elasticity.Elasticity.reactions`."""
-        u = self._vector("u", u, self.n_dofs)
-        tension = None if (lame is not None or self.split == "none") else self.tension(u)
-        lam, mu = self._point_lame(alpha, tension, lame)
-        out = np.zeros(self._constrained.size)
-        qk.boundary_product(self.grads, self.measure, self.space.cells, self._local_edges, self.bary, self.weights,
-                            self._boundary_cells, lam, mu, self.thickness, self._con_index, self._dof_index, u, 1.0,
-                            out)
-        if f is not None:
-            out -= self._vector("f", f, self.n_dofs)[self._constrained]
-        return out
-
-    # --- energies and fields ------------------------------------------------------------------
+    # --- fields -----------------------------------------------------------------------------------
     def strain(self, u) -> np.ndarray:
         """The strain at the quadrature points in Voigt order with tensor shear components
         (2D ``(e_xx, e_yy, e_xy)``, 3D ``(e_xx, e_yy, e_zz, e_yz, e_xz, e_xy)``), shape
@@ -320,68 +151,13 @@ class QuadraticElasticity:
         return qk.point_strain(self.grads, self.space.cells, self._local_edges, self.bary,
                                self._vector("u", u, self.n_dofs))
 
-    def stress(self, u) -> np.ndarray:
-        """Undamaged stresses ``C_e e(u)`` at the quadrature points in Voigt order (as
-        :meth:`fem3d.elasticity.Elasticity.stress`), shape (n_cells, n_q, 3 or 6)."""
-        e = self.strain(u)
-        d = self.dim
-        s = 2.0 * self.mu * e
-        s[..., :d] += self.lam * e[..., :d].sum(axis=-1, keepdims=True)
-        return s * self.modulus[:, None, None]
-
-    def cell_mean(self, values) -> np.ndarray:
-        """``sum_q w_q values[:, q]``: the mean over each cell of a quantity given at the
-        quadrature points (exact for a quadratic one), shape (n_cells,)."""
-        return self._points("values", values) @ self.weights
-
-    def energy_parts(self, u) -> tuple[np.ndarray, np.ndarray]:
-        """``(psi_plus, psi_minus)`` at the quadrature points (:func:`fem3d.split.energy_parts`),
-        each cell's modulus included, shape (n_cells, n_q) each (energy per volume)."""
-        plus, minus = splits.energy_parts(self.strain(u), self.lam, self.mu, self.dim, self.split)
-        return plus * self.modulus[:, None], minus * self.modulus[:, None]
-
     def strain_energy_density(self, u) -> np.ndarray:
         """The mean over each cell of the undamaged density ``psi = 1/2 e:C_e:e``,
         ``Int_e psi / |e|``, shape (n_cells,) (energy per volume)."""
-        e = self.strain(u)
-        psi, _ = splits.energy_parts(e, self.lam, self.mu, self.dim, "none")
+        psi, _ = splits.energy_parts(self.strain(u), self.lam, self.mu, self.dim, "none")
         return (psi @ self.weights) * self.modulus
-
-    def nodal_energy(self, u) -> np.ndarray:
-        """The nodal energy on the vertices ``c_i = T sum_{e ni i} Int_e psi_plus / (d + 1)``,
-        shape (n_vertices,): ``P(u, alpha) = sum_i c_i g(alpha_i) + T sum_e Int_e psi_minus``."""
-        out = np.empty(self.mesh.n_nodes)
-        kernels.nodal_energy(self.energy_parts(u)[0] @ self.weights, self.measure, self.mesh.cells, self.thickness,
-                             out)
-        return out
-
-    def elastic_energy(self, u, alpha) -> float:
-        """``P(u, alpha) = T sum_e |e| sum_q w_q (gbar_e psi_plus + psi_minus)`` (energy)."""
-        plus, minus = self.energy_parts(u)
-        return float(self.thickness * (np.dot(self.measure * (plus @ self.weights), self.degradation(alpha))
-                                       + np.dot(self.measure, minus @ self.weights)))
 
     def body_force(self, force, n=4) -> np.ndarray:
         """The consistent load vector of a body force (force per volume), shape (n_dofs,)
         (:meth:`fem3d.quadratic.QuadraticSpace.body_force`)."""
         return self.space.body_force(force, self.measure, self.thickness, n)
-
-    # --- near-nullspace -----------------------------------------------------------------------
-    def rigid_modes(self) -> np.ndarray:
-        """The rigid-body modes on the free dofs, for AMG's near-nullspace: the ``d``
-        translations, then the rotations about the nodes' centroid (2D: z; 3D: x, y, z)
-        divided by the mesh's largest extent; shape (n_free, 3) in 2D, (n_free, 6) in 3D."""
-        d, n = self.dim, self.space.n_nodes
-        points = self.space.points
-        x = points - points.mean(axis=0)
-        x = x / (float(np.ptp(points, axis=0).max()) or 1.0)
-        B = np.zeros((n, d, 3 if d == 2 else 6))
-        for a in range(d):
-            B[:, a, a] = 1.0
-        if d == 2:
-            B[:, 0, 2], B[:, 1, 2] = -x[:, 1], x[:, 0]
-        else:
-            B[:, 1, 3], B[:, 2, 3] = -x[:, 2], x[:, 1]
-            B[:, 0, 4], B[:, 2, 4] = x[:, 2], -x[:, 0]
-            B[:, 0, 5], B[:, 1, 5] = -x[:, 1], x[:, 0]
-        return np.ascontiguousarray(B.reshape(n * d, -1)[self._free])

@@ -32,6 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 from numba import njit
 
+from fem3d import kernels
 from fem3d.kernels import elasticity_matrix_voigt
 
 __all__ = [
@@ -171,22 +172,11 @@ def stiffness_values(grads, measure, cells, local_edges, bary, weights, lam, mu,
 
 def _voigt_B(G):
     """Strain-displacement matrices (engineering shear) at every point, shape
-    (n_cells, n_q, 3 or 6, nl d), from basis gradients ``G`` (n_cells, n_q, nl, d)."""
+    (n_cells, n_q, 3 or 6, nl d), from basis gradients ``G`` (n_cells, n_q, nl, d): P1's
+    :func:`fem3d.kernels._voigt_B` of each point as a cell of its own."""
     n, n_q, nl, d = G.shape
-    B = np.zeros((n, n_q, 3 if d == 2 else 6, d * nl))
-    for k in range(nl):
-        gx, gy = G[:, :, k, 0], G[:, :, k, 1]
-        c = d * k
-        if d == 2:
-            B[:, :, 0, c], B[:, :, 1, c + 1] = gx, gy
-            B[:, :, 2, c], B[:, :, 2, c + 1] = gy, gx
-        else:
-            gz = G[:, :, k, 2]
-            B[:, :, 0, c], B[:, :, 1, c + 1], B[:, :, 2, c + 2] = gx, gy, gz
-            B[:, :, 3, c + 1], B[:, :, 3, c + 2] = gz, gy  # yz
-            B[:, :, 4, c], B[:, :, 4, c + 2] = gz, gx  # xz
-            B[:, :, 5, c], B[:, :, 5, c + 1] = gy, gx  # xy
-    return B
+    B = kernels._voigt_B(G.reshape(n * n_q, nl, d))
+    return B.reshape(n, n_q, B.shape[1], B.shape[2])
 
 
 def stiffness_reference(grads, measure, cells, local_edges, bary, weights, lam, mu, thickness):
