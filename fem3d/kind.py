@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from fem3d import scene as fem_scene
-from thinfilm.run import EvolutionKind, Setup
+from thinfilm.run import EvolutionKind, Setup, peak_force_line
 from thinfilm.scene import SceneError
 
 __all__ = ["KIND", "FemKind", "build_mesh", "build_model", "crack_lengths", "crack_events", "AMG_MIN_DOFS_3D",
@@ -277,8 +277,9 @@ class FemKind(EvolutionKind):
         lines = [f"t = {e['t']:.6g}: crack length {e['crack_length_before']:.4g} -> {e['crack_length']:.4g}"
                  for e in summary["events"]]
         if "force" in results.steps and results.n:
-            k = int(np.argmax(results.steps["force"]))
-            lines.append(f"peak force {results.steps['force'][k]:.6g} at t = {results.t[k]:.6g}")
+            force = peak_force_line(results.t, results.steps["force"], results.steps.get("displacement"))
+            if force is not None:
+                lines.append(force)
         return lines
 
     def figures(self, results, outdir):

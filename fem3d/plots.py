@@ -5,7 +5,7 @@ on the triangles at chosen loads):
 
 * ``force_displacement.png``: the reaction on the loaded boundary against its prescribed
   displacement, crack events marked, and a measured curve if the scene names one
-  (``[output] reference``);
+  (``[output] reference``), drawn by :func:`thinfilm.plots.force_displacement_figure`;
 * ``crack_length.png``: the crack length (2D) or area (3D), surface energy over ``Gc``,
   against the load;
 * 3D: ``crack_surface.png``, the nodes with ``alpha >= 0.9`` at the last finished step seen
@@ -21,7 +21,8 @@ from pathlib import Path
 import numpy as np
 from matplotlib.collections import PolyCollection
 
-from thinfilm.plots import ALPHA_CMAP, DPI, line_figure, plt, progress_note
+from thinfilm.plots import ALPHA_CMAP, DPI, line_figure, plt, progress_note, read_reference
+from thinfilm.plots import force_displacement_figure as _force_displacement_figure
 
 __all__ = ["force_displacement_figure", "crack_length_figure", "crack_surface_figure", "slice_polygons",
            "alpha_slices_figure", "read_reference", "crack_sections_figure"]
@@ -30,45 +31,10 @@ __all__ = ["force_displacement_figure", "crack_length_figure", "crack_surface_fi
 BROKEN = 0.9
 
 
-def read_reference(path):
-    """A measured curve: a CSV of two columns (displacement, force), ``#`` comment lines
-    and one header line allowed. Returns ``(displacement, force)`` arrays."""
-    rows = []
-    for line in Path(path).read_text(encoding="utf-8").splitlines():
-        line = line.strip()
-        if not line or line.startswith("#"):
-            continue
-        try:
-            rows.append([float(v) for v in line.split(",")[:2]])
-        except ValueError:
-            continue  # the header
-    data = np.array(rows)
-    return data[:, 0], data[:, 1]
-
-
 def force_displacement_figure(res, outdir, reference=None, events=()):
-    """``force_displacement.png``; ``res`` an open results file with ``force`` and ``displacement``."""
-    path = Path(outdir) / "force_displacement.png"
-    fig, ax = line_figure(6.4, 4.4)
-    u, force = res.steps["displacement"], res.steps["force"]
-    ax.plot(u, force, "o-", ms=2.5, lw=1.4, color="black", label="computed")
-    for t_event in events:
-        k = int(np.argmin(np.abs(res.t - t_event)))
-        ax.plot(u[k], force[k], "v", ms=8, mfc="none", color="tab:red")
-    if events:
-        ax.plot([], [], "v", ms=8, mfc="none", color="tab:red", label="crack length jumps")
-    if reference is not None:
-        ref_u, ref_f = read_reference(reference)
-        ax.plot(ref_u, ref_f, "-", lw=1.2, color="tab:blue", label=f"measured ({Path(reference).name})")
-    ax.set_xlim(left=0.0)
-    ax.set_ylim(bottom=min(0.0, float(np.min(force))))
-    ax.set_xlabel("prescribed displacement")
-    ax.set_ylabel("reaction force")
-    ax.set_title(f"force against displacement{progress_note(res)}", fontsize=10)
-    ax.legend(fontsize=8)
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
-    return path
+    """``force_displacement.png`` (:func:`thinfilm.plots.force_displacement_figure`, shared with
+    the film); ``res`` an open results file with ``force`` and ``displacement``."""
+    return _force_displacement_figure(res, outdir, events=events, reference=reference)
 
 
 def crack_length_figure(res, outdir, length, dim):

@@ -13,9 +13,12 @@ got; :mod:`thinfilm.results.reader`), for every kind (:func:`plot_run`):
 * ``iterations.png``: alternate-minimization iterations and u-solves of each step;
 * ``alpha.gif`` (on request): the damage over the load, at most ~100 frames;
 
-then the kind's own figures (:meth:`thinfilm.run.EvolutionKind.figures`: the film's crack
-positions and toughness field) and ``results.xdmf`` (:mod:`thinfilm.xdmf`). Titles, field
+then the kind's own figures (:meth:`thinfilm.run.EvolutionKind.figures`: the film's force
+against displacement, crack positions and toughness field) and ``results.xdmf`` (:mod:`thinfilm.xdmf`). Titles, field
 labels and the length unit come from the kind (:class:`thinfilm.run.EvolutionKind`).
+
+Kinds that record a force against a prescribed displacement draw it with
+:func:`force_displacement_figure` (``force_displacement.png``), the same for every kind.
 """
 
 from __future__ import annotations
@@ -219,6 +222,82 @@ def line_figure(width, height):
     fig = plt.figure(figsize=(width, height))
     fig.subplots_adjust(left=0.95 / width, right=1.0 - 0.2 / width, bottom=0.6 / height, top=1.0 - 0.4 / height)
     return fig, fig.add_subplot()
+
+
+def read_reference(path):
+    """A measured curve: a CSV of two columns (displacement, force), ``#`` comment lines
+    and one header line allowed. Returns ``(displacement, force)`` arrays."""
+    rows = []
+    for line in Path(path).read_text(encoding="utf-8").splitlines():
+        line = line.strip()
+        if not line or line.startswith("#"):
+            continue
+        try:
+            rows.append([float(v) for v in line.split(",")[:2]])
+        except ValueError:
+            continue  # the header
+    data = np.array(rows)
+    return data[:, 0], data[:, 1]
+
+
+def force_displacement_figure(res, outdir, events=(), reference=None, xlabel="prescribed displacement",
+                              ylabel="reaction force", event_label="crack length jumps",
+                              title="force against displacement", physical=None):
+    """``force_displacement.png``: the recorded force of each finished step against its
+    prescribed displacement (``/steps/force``, ``/steps/displacement``), crack events marked.
+
+    Parameters
+    ----------
+    res : Results
+        An open results file with ``force`` and ``displacement`` in its steps (steps whose
+        force was not recorded, NaN, are left out).
+    outdir : str or Path
+    events : sequence of float
+        Loads t of the crack events; each is marked at the finished step nearest to it.
+    reference : str or Path, optional
+        A measured curve (:func:`read_reference`), drawn beside the computed one.
+    xlabel, ylabel, event_label, title : str
+        The kind's words.
+    physical : tuple, optional
+        ``(length factor, length label, force factor, force label)``: a second pair of axes
+        (top, right) reading the same curve in physical units.
+
+    Returns
+    -------
+    Path
+    """
+    path = Path(outdir) / "force_displacement.png"
+    width, height = 6.4, 4.4
+    fig, ax = line_figure(width, height)
+    if physical is not None:
+        # room for the second axes' ticks and labels, right and top
+        fig.subplots_adjust(right=1.0 - 0.95 / width, top=1.0 - 0.95 / height)
+    d, force = np.asarray(res.steps["displacement"]), np.asarray(res.steps["force"])
+    ax.plot(d, force, "o-", ms=2.5, lw=1.4, color="black", label="computed")
+    for t_event in events:
+        k = int(np.argmin(np.abs(res.t - t_event)))
+        ax.plot(d[k], force[k], "v", ms=8, mfc="none", color="tab:red")
+    if len(events):
+        ax.plot([], [], "v", ms=8, mfc="none", color="tab:red", label=event_label)
+    if reference is not None:
+        ref_d, ref_f = read_reference(reference)
+        ax.plot(ref_d, ref_f, "-", lw=1.2, color="tab:blue", label=f"measured ({Path(reference).name})")
+    ax.set_xlim(left=0.0)
+    ax.set_ylim(bottom=min(0.0, float(np.nanmin(force))))
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    if physical is not None:
+        length, length_label, unit, force_label = physical
+        top = ax.secondary_xaxis("top", functions=(lambda v: v * length, lambda v: v / length))
+        top.set_xlabel(length_label)
+        right = ax.secondary_yaxis("right", functions=(lambda v: v * unit, lambda v: v / unit))
+        right.set_ylabel(force_label)
+    # above the second x axis' ticks and label, if there is one
+    ax.set_title(f"{title}{progress_note(res)}", fontsize=10, pad=6 if physical is None else 40)
+    ax.legend(fontsize=8)
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
 
 
 def _draw_curves(res, steps, field, values, path, title):
@@ -450,7 +529,8 @@ def plot_run(results, outdir=None, loads=None, animate=False, xdmf=True, opener=
     Returns
     -------
     list of Path
-        ``energy.png``, then the kind's own figures (the film's ``cracks.png``), ``alpha.png``,
+        ``energy.png``, then the kind's own figures (the film's ``force_displacement.png`` and
+        ``cracks.png``), ``alpha.png``,
         ``alpha_snapshots.png``, ``u_snapshots.png`` (those drawn: see the module docstring),
         ``iterations.png``, the kind's figures drawn once (the film's ``toughness.png``), then
         ``alpha.gif`` and ``results.xdmf`` if asked for.

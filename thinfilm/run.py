@@ -30,7 +30,7 @@ from thinfilm.results.info import seconds
 from thinfilm.results.reader import Results
 from thinfilm.results.writer import ResultsWriter, ResumeError, write_summary
 
-__all__ = ["run", "Setup", "EvolutionKind", "RunInterrupted", "load_steps"]
+__all__ = ["run", "Setup", "EvolutionKind", "RunInterrupted", "load_steps", "peak_force_line", "json_list"]
 
 log = logging.getLogger("thinfilm")
 
@@ -63,6 +63,25 @@ def load_steps(load):
     if values is not None:
         return np.asarray(values, dtype=float)
     return np.linspace(0.0, load.t_max, load.steps + 1)
+
+
+def peak_force_line(t, force, displacement=None):
+    """``"peak force F at t = ... (displacement d)"``: the largest recorded force of a run
+    (``/steps/force``; steps without one, NaN, are skipped), or None if none was recorded.
+    The same line for every kind: ``thinfilm run``'s report and ``thinfilm info``."""
+    force = np.asarray(force, dtype=float)
+    if not np.isfinite(force).any():
+        return None
+    k = int(np.nanargmax(force))
+    line = f"peak force {force[k]:.6g} at t = {float(t[k]):.6g}"
+    if displacement is not None:
+        line += f" (displacement {float(displacement[k]):.6g})"
+    return line
+
+
+def json_list(values):
+    """Per-step values for ``summary.json``: floats, None where NaN (JSON has no NaN)."""
+    return [None if not np.isfinite(v) else float(v) for v in np.asarray(values, dtype=float)]
 
 
 @dataclass
@@ -272,7 +291,8 @@ class EvolutionKind:
         return plot_run(results, outdir, loads=loads, animate=animate, opener=self.results_class)
 
     def info(self, f, steps) -> list[str]:
-        """``thinfilm info``'s lines on the solver's work: timings, iterations, stability."""
+        """``thinfilm info``'s lines on the solver's work (timings, iterations, stability) and,
+        for a kind that records a force, its peak (:func:`peak_force_line`)."""
         n = len(steps["t"])
         if "time_total" not in steps:
             return []
@@ -290,6 +310,10 @@ class EvolutionKind:
                  f" (most in one step: {int(steps['iterations'].max()) if n else 0})",
                  f"  backtracks    {int(total('backtracks'))}; trials (search, stability)"
                  f" {int(total('trials'))} ({int(total('trials_accepted'))} kept)"]
+        if "force" in steps and n:
+            force = peak_force_line(t, steps["force"], steps.get("displacement"))
+            if force is not None:
+                lines.append(force)
         if "lowest_curvature" in steps and n and np.isfinite(steps["lowest_curvature"]).any():
             curvature = steps["lowest_curvature"]
             checked = np.isfinite(curvature)
