@@ -8,7 +8,7 @@ import pytest
 
 from thinfilm.cli import main
 from thinfilm.plate.grid import Grid
-from thinfilm.plate.loads import cantilever, field, indenter, indenter_displacement
+from thinfilm.plate.loads import cantilever, field, indenter, indenter_displacement, indenter_rate
 from thinfilm.plate.kind import resolution_warnings
 from thinfilm.scene import SceneError, parse_scene
 from thinfilm.plate.units import Material, toughness_from_KIC
@@ -43,6 +43,30 @@ def test_cantilever_is_clamped_with_the_end_force_deflection():
     w = lambda s: s**2 * (3 - s)  # noqa: E731
     h = 1e-3
     assert abs((w(1 + h) - 2 * w(1) + w(1 - h)) / h**2) < 1e-9
+
+
+def test_each_load_knows_its_rate_and_the_displacement_it_imposes():
+    # The indenter: dw/dt = -R under the contact disk (the substrate follows the sphere down),
+    # 0 outside; its displacement is the depth R t, the substrate's at the centre.
+    R, t, dt = 0.3, 0.4, 1e-7
+    r = np.linspace(0.0, 0.5, 2001)
+    rate = indenter_rate(r, np.zeros_like(r), R, t)
+    rc = R * math.sqrt(t * (2 - t))
+    away = np.abs(r - rc) > 1e-4   # the rate jumps where the contact edge passes
+    difference = (indenter_displacement(r, 0 * r, R, t + dt) - indenter_displacement(r, 0 * r, R, t - dt)) / (2 * dt)
+    np.testing.assert_allclose(rate[away], difference[away], atol=1e-6)
+    assert set(np.unique(rate)) == {-R, 0.0}
+    grid = Grid.rectangle(-0.5, 0.5, 20, -0.5, 0.5, 20)
+    load = indenter(grid, R)
+    centre = np.argmin(grid.coordinates[0] ** 2 + grid.coordinates[1] ** 2)
+    assert load.displacement_scale * t == pytest.approx(-load.w(t)[centre], rel=1e-12)
+    np.testing.assert_array_equal(load.dw(t), indenter_rate(*grid.coordinates, R, t))
+    # The cantilever: t times its tip deflection per unit t, w_1(lx) = 2 lx^3 (lx = 2 here);
+    # a proportional load's rate is w(1).
+    grid = Grid.rectangle(1.0, 3.0, 10, -0.05, 0.05, 2)
+    load = cantilever(grid)
+    assert load.displacement_scale == 16.0 and load.w(1.0)[grid.coordinates[0] == 3.0] == pytest.approx(16.0)
+    np.testing.assert_array_equal(load.dw(0.7), load.w(1.0))
 
 
 def test_field_load_scales_with_t():

@@ -22,6 +22,7 @@ __all__ = [
     "bending_density",
     "surface_energy",
     "total_energy",
+    "load_force",
     "nodal_energy",
     "damage_problem",
     "damage_problem_constant",
@@ -92,6 +93,37 @@ def surface_energy(damage, alpha) -> float:
 def total_energy(plate, damage, u, alpha, w) -> float:
     """``E_h(u, alpha) = P_h(u, alpha, w) + S_h(alpha)``."""
     return elastic_energy(plate, u, alpha, w) + surface_energy(damage, alpha)
+
+
+def load_force(plate, u, w, dw) -> float:
+    """The force conjugate to the load parameter: ``dE_h/dt`` at fixed ``u`` and ``alpha``.
+
+    Only the foundation term depends on ``t`` (through ``w = w_t``), so
+
+        F_t = dE_h/dt = -winkler sum_n omega_n (u_n - w_n) dw_n/dt,
+
+    the foundation's traction ``winkler (u - w)`` on the substrate times the substrate's
+    velocity, summed over the grid with the node weights (clamped nodes count with ``u = 0``,
+    as in the energy). At a minimizer ``u`` it is also the derivative of the minimized energy
+    at fixed ``alpha`` (envelope theorem), so that ``F_t dt`` is the work the load does on the
+    film: positive when loading stores energy.
+
+    Parameters
+    ----------
+    plate : PlateOperator
+    u, w, dw : ndarray, shape (n_nodes,)
+        Displacement, substrate displacement ``w_t`` and its rate ``dw_t/dt`` at the nodes.
+
+    Returns
+    -------
+    float
+        Non-dimensional energy per unit of ``t``.
+    """
+    grid = plate.grid
+    u = np.array(grid.nodal("u", u))
+    u[plate.clamped_nodes] = 0.0  # the energy ignores stored values there
+    traction = plate.winkler * grid.weights * (u - grid.nodal("w", w))
+    return 0.0 - float(traction @ grid.nodal("w", dw))  # 0.0 -: no -0.0 at t = 0
 
 
 def nodal_energy(plate, damage, u, alpha, w) -> np.ndarray:

@@ -3,8 +3,11 @@
 :data:`KIND` is what :mod:`thinfilm.kinds` finds. It reads ``kind = "plate"`` scenes
 (:mod:`thinfilm.plate.scene`), builds the :class:`thinfilm.plate.model.PlateModel` on its grid
 with its load, symmetry, imperfection and linear solver, and adds to what every run writes the
-film's readings: the crack events along ``y = 0`` (``summary.json``), ``cracks.png`` and the
-toughness field of an imperfect film.
+film's readings: the force conjugate to the load and the displacement it imposes at every step
+(``/steps/force``, ``/steps/displacement``, as a solid's reaction; in SI units too when the
+scene has a ``[material]``), the crack events along ``y = 0`` (``summary.json``),
+``cracks.png``, ``force_displacement.png`` (indenter, cantilever) and the toughness field of
+an imperfect film.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from thinfilm.plate.operators import near_nullspace
 from thinfilm.plate.results import PlateResults, crack_events
 from thinfilm.plate.sequencing import CoarseDamage
 from thinfilm.plate.symmetry import GridSymmetry
-from thinfilm.run import EvolutionKind, Setup
+from thinfilm.run import EvolutionKind, Setup, json_list, peak_force_line
 from thinfilm.scene import SceneError
 from thinfilm.solvers.linear import make_solver
 
@@ -111,7 +114,7 @@ def make_model(scene, grid):
     factor = toughness_factor(grid, m.toughness_noise, m.toughness_noise_length, m.toughness_noise_seed, symmetry)
     model = PlateModel(grid, plate_nu, m.winkler, m.k_res, m.eta, m.toughness, m.at, load.w,
                        proportional=load.proportional, linear_solver=None, clamped=load.clamped,
-                       trial_radius=m.eta, symmetry=symmetry, toughness_factor=factor)
+                       trial_radius=m.eta, symmetry=symmetry, toughness_factor=factor, load_rate=load.dw)
     coords = np.column_stack(grid.coordinates)
     if symmetry is not None:
         coords = coords[symmetry.representative]
@@ -152,6 +155,33 @@ def make_symmetry(scene, grid, load):
     return symmetry
 
 
+def force_observer(model, load, material=None, dim=2):
+    """``observe(u, alpha, t)`` of a plate run: the force conjugate to the load's displacement.
+
+    ``displacement = s t`` with ``s = load.displacement_scale`` (the indenter's depth, the
+    cantilever's tip deflection, t itself for the other loads) and ``force = (dE/dt) / s``
+    (:meth:`PlateModel.force`), so that ``force d(displacement)`` is the work of the load:
+    positive when pressing in. With a material, ``force_si`` (N, 1D: N per metre of width)
+    and ``displacement_si`` (m) too (:meth:`thinfilm.plate.units.Material.force_unit`).
+
+    Returns
+    -------
+    observe : callable
+    observables : tuple of str
+    """
+    scale = float(load.displacement_scale)
+
+    def observe(u, alpha, t):
+        force = model.force(u, t) / scale
+        out = {"force": force, "displacement": scale * t}
+        if material is not None:
+            out["force_si"] = force * material.force_unit(dim)
+            out["displacement_si"] = scale * t * material.L
+        return out
+
+    return observe, ("force", "displacement") + (("force_si", "displacement_si") if material is not None else ())
+
+
 class PlateKind(EvolutionKind):
     """``kind = "plate"``: the thin film on a Winkler foundation, on a structured grid."""
 
@@ -183,8 +213,9 @@ class PlateKind(EvolutionKind):
             mat = scene.material
             groups["material"] = {"E": mat.E, "nu": mat.nu, "h": mat.h, "Gc": mat.Gc,
                                   "bond_stiffness": mat.bond_stiffness, "L": mat.L, **mat.groups()}
+        observe, observables = force_observer(model, make_load(scene, grid), scene.material, grid.dim)
         return Setup(model=model, discretization=grid.description(), constant=constant, groups=groups,
-                     guess=guess, log=lines)
+                     guess=guess, observe=observe, observables=observables, log=lines)
 
     def parameters(self, scene):
         m, load = scene.model, scene.load
@@ -202,18 +233,39 @@ class PlateKind(EvolutionKind):
         return resolution_warnings(scene)
 
     def summary(self, scene, results):
-        """``"events"``: the steps where the number of cracks along y = 0 changes, with their positions."""
+        """``"events"``: the steps where the number of cracks along y = 0 changes, with their
+        positions; ``"steps"``: the force and displacement of each step (and in SI units, with a
+        material; null where not recorded)."""
         events = crack_events(results.t, results.cracks())
-        return {"events": [{"t": float(t), "cracks": [float(c) for c in cracks]} for t, cracks in events]}
+        steps = {name: json_list(results.steps[name]) for name in ("force", "displacement", "force_si",
+                                                                    "displacement_si") if name in results.steps}
+        return {"events": [{"t": float(t), "cracks": [float(c) for c in cracks]} for t, cracks in events],
+                "steps": steps}
 
     def report(self, scene, results, summary):
-        return [f"t = {e['t']:.6g}: {len(e['cracks'])} crack(s) along y = 0 at "
-                + ", ".join(f"{c:+.4f}" for c in e["cracks"]) for e in summary["events"]]
+        lines = [f"t = {e['t']:.6g}: {len(e['cracks'])} crack(s) along y = 0 at "
+                 + ", ".join(f"{c:+.4f}" for c in e["cracks"]) for e in summary["events"]]
+        if "force" in results.steps and results.n:
+            force = peak_force_line(results.t, results.steps["force"], results.steps.get("displacement"))
+            if force is not None:
+                lines.append(force)
+        return lines
 
     def figures(self, results, outdir):
-        from thinfilm.plate.plots import cracks_figure
+        from thinfilm.plate.plots import cracks_figure, force_figure
 
-        return [cracks_figure(results, outdir)]
+        return [force_figure(results, outdir), cracks_figure(results, outdir)]
+
+    def info(self, f, steps):
+        """The engine's lines; the peak force also in SI units if the scene had a material."""
+        lines = super().info(f, steps)
+        peak = [i for i, line in enumerate(lines) if line.startswith("peak force")]
+        if peak and "force_si" in steps:
+            k = int(np.nanargmax(steps["force"]))
+            unit = "N" if int(f["grid"].attrs["dim"]) == 2 else "N/m"
+            lines.insert(peak[0] + 1, f"  in SI units: {steps['force_si'][k]:.6g} {unit} at a displacement of"
+                                      f" {steps['displacement_si'][k]:.6g} m")
+        return lines
 
     def constant_figures(self, results, outdir):
         from thinfilm.plate.plots import toughness_figure

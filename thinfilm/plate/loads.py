@@ -11,6 +11,11 @@ the engine's backtracking and u-solve skipping need), and the edges the load cla
   substrate follows it where it touches, ``r^2 < r_c^2 = R^2 t (2 - t)``, and stays flat
   elsewhere. Not proportional to ``t``;
 * ``field``: a displacement given at the nodes, scaled by ``t``.
+
+Each load also knows its rate ``dw_t/dt`` (what the force conjugate to the load needs:
+:func:`thinfilm.plate.energy.load_force`) and the displacement it imposes, a multiple of
+``t`` (:attr:`Load.displacement_scale`): the indenter's depth ``R t``, the cantilever's tip
+deflection ``w_t(lx) = 2 lx^3 t``, ``t`` itself for the others.
 """
 
 from __future__ import annotations
@@ -36,11 +41,28 @@ class Load:
         ``w(t) = t w(1)``.
     clamped : tuple of str
         Edges clamped by the load (``"x0"``, ``"x1"``, ``"y0"``, ``"y1"``).
+    rate : callable, optional
+        ``rate(t) -> ndarray, shape (n_nodes,)``, the derivative ``dw_t/dt`` at the nodes;
+        None for a proportional load, whose rate is ``w(1)``.
+    displacement_scale : float
+        The displacement the load imposes per unit of ``t`` (units of L): the indenter's depth
+        ``R t``, the cantilever's tip deflection ``2 lx^3 t``; 1 for the others, whose
+        displacement is ``t`` itself. The recorded force is conjugate to this displacement.
     """
 
     w: Callable[[float], np.ndarray]
     proportional: bool
     clamped: tuple = ()
+    rate: Callable[[float], np.ndarray] | None = None
+    displacement_scale: float = 1.0
+
+    def dw(self, t):
+        """``dw_t/dt`` at the nodes, shape ``(n_nodes,)``."""
+        if self.rate is not None:
+            return self.rate(t)
+        if self.proportional:
+            return self.w(1.0)
+        raise ValueError("a load that is not proportional to t needs its rate dw_t/dt")
 
 
 def bending(grid: Grid) -> Load:
@@ -54,7 +76,7 @@ def cantilever(grid: Grid) -> Load:
     s = grid.coordinates[0] - grid.x0
     lx = grid.x1 - grid.x0
     w1 = s**2 * (3.0 * lx - s)
-    return Load(lambda t: t * w1, True, clamped=("x0",))
+    return Load(lambda t: t * w1, True, clamped=("x0",), displacement_scale=2.0 * lx**3)
 
 
 def contact_radius(radius, t):
@@ -88,13 +110,27 @@ def indenter_displacement(x, y, radius, t):
     return out
 
 
+def indenter_rate(x, y, radius, t):
+    """``d w_t / d t`` of :func:`indenter_displacement`: ``-R`` under the contact disk
+    (``r^2 < R^2 t (2 - t)``, where the substrate moves down with the sphere), 0 outside.
+
+    At a node the substrate displacement is continuous in ``t`` (0 when the contact edge
+    passes it) and its rate jumps from 0 to ``-R`` there; the node on the contact circle
+    itself takes the rate from before (0), as :func:`indenter_displacement` takes it outside.
+    """
+    r2 = np.asarray(x) ** 2 + np.asarray(y) ** 2
+    return np.where(r2 < contact_radius(radius, t) ** 2, -float(radius), 0.0)
+
+
 def indenter(grid: Grid, radius: float) -> Load:
-    """Spherical indenter of radius ``radius`` centred at the origin (not proportional)."""
+    """Spherical indenter of radius ``radius`` centred at the origin (not proportional); its
+    displacement is the depth ``R t``."""
     if grid.dim == 1:
         x, y = grid.coordinates[0], np.zeros_like(grid.coordinates[0])
     else:
         x, y = grid.coordinates
-    return Load(lambda t: indenter_displacement(x, y, radius, t), False)
+    return Load(lambda t: indenter_displacement(x, y, radius, t), False,
+                rate=lambda t: indenter_rate(x, y, radius, t), displacement_scale=float(radius))
 
 
 def field(grid: Grid, w1: np.ndarray) -> Load:

@@ -3,7 +3,8 @@
 :class:`PlateModel` binds a grid, the plate + Winkler operator, the damage operator, a load
 ``t -> w_t`` and a linear solver into the :class:`thinfilm.engine.protocol.FractureModel`
 interface: ``solve_u``, ``damage_problem``, ``energies``, ``trial_states`` (the trial
-cracks of the nucleation search) and ``stability_modes`` (the stability check).
+cracks of the nucleation search) and ``stability_modes`` (the stability check); ``force``
+gives the force conjugate to the load parameter, which the runs record at every step.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from typing import Callable
 import numpy as np
 from scipy import ndimage
 
+from thinfilm.plate.energy import load_force
 from thinfilm.plate.grid import Grid
 from thinfilm.solvers.linear import DirectSolver, make_solver
 from thinfilm.plate.operators import DamageOperator, PlateOperator
@@ -76,17 +78,21 @@ class PlateModel:
     toughness_factor : ndarray, shape (n_nodes,), optional
         A film of varying toughness ``toughness * factor`` (:mod:`thinfilm.plate.imperfection`);
         with a symmetry it must be invariant under it.
+    load_rate : callable, optional
+        ``load_rate(t) -> dw_t/dt`` at the nodes (:meth:`thinfilm.plate.loads.Load.dw`), for
+        :meth:`force`; by default ``load(1)`` for a proportional load.
     """
 
     def __init__(self, grid: Grid, nu, winkler, k_res, eta, toughness, at, load: Callable, proportional,
                  linear_solver, clamped=(), trial_radius=0.0, sound_threshold=0.5, symmetry=None,
-                 toughness_factor=None):
+                 toughness_factor=None, load_rate=None):
         self.grid = grid
         self.plate = PlateOperator(grid, nu, winkler, k_res, clamped=clamped)
         self.damage = DamageOperator(grid, eta, toughness, at, toughness_factor=toughness_factor)
         self.eta, self.at = float(eta), int(at)
         self.load = load
         self.proportional = bool(proportional)
+        self.load_rate = load_rate
         self.linear_solver = linear_solver
         self.n_alpha = grid.n_nodes
         self.toughness = float(toughness)  # G/a: the search's threshold is relative to it
@@ -139,6 +145,34 @@ class PlateModel:
 
     def energies(self, u, alpha, t):
         return self.plate.elastic_energy(u, alpha, self.load(t)), self.damage.surface_energy(alpha)
+
+    def force(self, u, t):
+        """The force conjugate to the load parameter, ``dE/dt`` at fixed ``u`` and ``alpha``
+        (:func:`thinfilm.plate.energy.load_force`; the damage does not enter: only the
+        foundation depends on ``t``).
+
+        Parameters
+        ----------
+        u : ndarray, shape (n_nodes,)
+        t : float
+
+        Returns
+        -------
+        float
+            Non-dimensional energy per unit of ``t``.
+
+        Raises
+        ------
+        ValueError
+            For a load that is not proportional and was given without its rate.
+        """
+        if self.load_rate is not None:
+            rate = self.load_rate(t)
+        elif self.proportional:
+            rate = self.load(1.0)
+        else:
+            raise ValueError("the force of a load that is not proportional to t needs its rate (load_rate)")
+        return load_force(self.plate, u, self.load(t), rate)
 
     def elastic_density(self, u, alpha, t):
         """Undamaged bending energy per unit area at the nodes (lumped), shape ``(n_nodes,)``."""

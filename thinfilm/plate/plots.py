@@ -1,8 +1,13 @@
-"""The film's own figures: crack positions along ``y = 0`` and the toughness of an imperfect film.
+"""The film's own figures: force against displacement, crack positions along ``y = 0`` and the
+toughness of an imperfect film.
 
 Drawn from a :class:`thinfilm.plate.results.PlateResults` alone, beside the figures every run
 gets (:mod:`thinfilm.plots`):
 
+* ``force_displacement.png`` (indenter and cantilever): the force conjugate to the imposed
+  displacement (indentation depth, tip deflection) against it, the crack events along y = 0
+  marked (:func:`thinfilm.plots.force_displacement_figure`, as a solid's reaction is drawn);
+  with a material, second axes in SI units;
 * ``cracks.png``: crack positions along y = 0 against t (local maxima of alpha > 0.9);
 * ``toughness.png``: the toughness field of an imperfect film (:mod:`thinfilm.plate.imperfection`).
 """
@@ -13,9 +18,50 @@ from pathlib import Path
 
 import numpy as np
 
-from thinfilm.plots import DPI, image_extent, line_figure, plt, progress_note
+from thinfilm.plate.results import crack_events
+from thinfilm.plots import DPI, force_displacement_figure, image_extent, line_figure, plt, progress_note
 
-__all__ = ["cracks_figure", "toughness_figure"]
+__all__ = ["force_figure", "cracks_figure", "toughness_figure"]
+
+#: The words of each load's displacement and force (non-dimensional: lengths in L, energies in
+#: D, forces in D/L).
+FORCE_WORDS = {
+    "indenter": ("indentation depth d = R t (L)", "indenter force F = dE/dd (D/L)"),
+    "cantilever": ("tip deflection $w_t(l_x) = 2 l_x^3 t$ (L)", "tip force F = dE/d$w_t(l_x)$ (D/L)"),
+}
+
+
+def _prefix(value):
+    """``(factor, prefix)`` of the SI prefix that writes ``value`` between 1 and 1000."""
+    for factor, prefix in ((1.0, ""), (1e3, "m"), (1e6, "µ"), (1e9, "n"), (1e12, "p")):
+        if abs(value) * factor >= 1.0:
+            return factor, prefix
+    return 1e12, "p"
+
+
+def force_figure(res, outdir):
+    """``force_displacement.png`` of an indenter or cantilever run; None for the other loads
+    and for a file without recorded forces (written before they were recorded)."""
+    load = res.parameters.get("load")
+    if load not in FORCE_WORDS or "force" not in res.steps or not np.isfinite(res.steps["force"]).any():
+        return None
+    xlabel, ylabel = FORCE_WORDS[load]
+    if res.dim == 1:
+        ylabel = ylabel.replace("(D/L)", "(D/L per unit width)")
+    events = [t for t, _ in crack_events(res.t, res.cracks())]
+    physical = None
+    if "force_si" in res.steps and "material" in res.file:
+        material = res.file["material"].attrs
+        L, D = float(material["L"]), float(material["rigidity"])
+        unit = D / L if res.dim == 2 else D / L**2
+        d_factor, d_prefix = _prefix(np.nanmax(res.steps["displacement"]) * L)
+        f_factor, f_prefix = _prefix(np.nanmax(np.abs(res.steps["force"])) * unit)
+        physical = (L * d_factor, f"displacement ({d_prefix}m)", unit * f_factor,
+                    f"force ({f_prefix}N{'' if res.dim == 2 else '/m'})")
+    what = "indentation" if load == "indenter" else "cantilever"
+    return force_displacement_figure(res, outdir, events=events, xlabel=xlabel, ylabel=ylabel,
+                                     event_label="cracks along y = 0 change",
+                                     title=f"{what}: force against displacement", physical=physical)
 
 
 def cracks_figure(res, outdir):

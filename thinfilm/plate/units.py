@@ -10,6 +10,11 @@ from Young's modulus ``E``, Poisson's ratio ``nu``, film thickness ``h``, fractu
 stiffness ``K_b`` per unit area, and the length ``L`` that the domain's coordinates are
 measured in. The flexural rigidity is ``D = E h^3 / (12 (1 - nu^2))``.
 
+Lengths and deflections are both scaled by ``L`` (the dissertation's ``x0 = u0 = L``) and
+the energy by ``D``: a non-dimensional energy ``E~`` is ``D E~`` joules, a force conjugate to
+a displacement (in units of L) ``D / L`` newtons (:meth:`Material.force_unit`). A 1D film's
+energy is per unit width (the width in units of L): ``D / L`` J/m, forces ``D / L^2`` N/m.
+
 For the ITO film of the dissertation's Table 2.1 (E = 99.8 GPa, K_IC = 2.2 MPa sqrt(m),
 h = 0.1 um, nu = 0.3), (2.13) gives G~ = 0.053, ten times the printed 5e-3 (``docs/model.md#physical-units``);
 ``cases/ito_indentation.toml`` uses the formula.
@@ -77,6 +82,17 @@ class Material:
     def rigidity(self):
         """Flexural rigidity ``D = E h^3 / (12 (1 - nu^2))`` (N m)."""
         return self.E * self.h**3 / (12.0 * (1.0 - self.nu**2))
+
+    def energy_unit(self, dim=2):
+        """The physical energy of a unit of non-dimensional energy: ``D`` (J) for a 2D film,
+        ``D / L`` (J per metre of width) for a 1D film."""
+        return self.rigidity if dim == 2 else self.rigidity / self.L
+
+    def force_unit(self, dim=2):
+        """The physical force of a unit of non-dimensional force (energy per displacement, both
+        non-dimensional): ``D / L`` (N) for a 2D film, ``D / L^2`` (N per metre of width) for a
+        1D film."""
+        return self.energy_unit(dim) / self.L
 
     def groups(self):
         """The non-dimensional groups and derived quantities, for logs and results.
