@@ -4,7 +4,9 @@
 (:mod:`thinfilm.plate.scene`), builds the :class:`thinfilm.plate.model.PlateModel` on its grid
 with its load, symmetry, imperfection and linear solver, and adds to what every run writes the
 film's readings: the crack events along ``y = 0`` (``summary.json``), ``cracks.png`` and the
-toughness field of an imperfect film.
+toughness field of an imperfect film; on a 2D grid also the crack metrics of the damage field
+(:mod:`thinfilm.plate.crack_metrics`: lengths, cracks, fragments, branch points, rings) in
+``summary.json``, ``thinfilm info``, ``crack_metrics.png`` and ``crack_pattern.png``.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import math
 import numpy as np
 
 from thinfilm.plate import loads, scene as plate_scene
+from thinfilm.plate.cracks import CRACK_THRESHOLD, SOUND_THRESHOLD
 from thinfilm.plate.grid import Grid
 from thinfilm.plate.imperfection import toughness_factor
 from thinfilm.plate.model import PlateModel
@@ -202,17 +205,55 @@ class PlateKind(EvolutionKind):
         return resolution_warnings(scene)
 
     def summary(self, scene, results):
-        """``"events"``: the steps where the number of cracks along y = 0 changes, with their positions."""
+        """``"events"``: the steps where the number of cracks along y = 0 changes, with their
+        positions; on a 2D grid also ``"crack_metrics"`` at the measured steps and the crack
+        length from the surface energy at every step (``"steps"``, ``"crack_length"``)."""
         events = crack_events(results.t, results.cracks())
-        return {"events": [{"t": float(t), "cracks": [float(c) for c in cracks]} for t, cracks in events]}
+        out = {"events": [{"t": float(t), "cracks": [float(c) for c in cracks]} for t, cracks in events]}
+        if results.dim == 2:
+            from thinfilm.plate.crack_metrics import branch_radius
+
+            p = results.parameters
+            out["crack_metrics"] = {
+                "threshold": CRACK_THRESHOLD, "sound": SOUND_THRESHOLD,
+                "branch_radius": branch_radius(float(p["eta"]), min(results.discretization.spacing)),
+                "measured": [m.as_json() for m in results.crack_metrics()]}
+            out["steps"] = {"crack_length": results.crack_length().tolist()}
+        return out
 
     def report(self, scene, results, summary):
-        return [f"t = {e['t']:.6g}: {len(e['cracks'])} crack(s) along y = 0 at "
-                + ", ".join(f"{c:+.4f}" for c in e["cracks"]) for e in summary["events"]]
+        lines = [f"t = {e['t']:.6g}: {len(e['cracks'])} crack(s) along y = 0 at "
+                 + ", ".join(f"{c:+.4f}" for c in e["cracks"]) for e in summary["events"]]
+        if results.dim == 2 and results.n:
+            last = results.crack_metrics()[-1]
+            lines.append(f"t = {last.t:.6g} (last step): {last.describe()}")
+        return lines
+
+    def info(self, f, steps):
+        """The engine's lines, and on a 2D grid the crack metrics of the last finished step with
+        the count along the centre line beside them."""
+        lines = super().info(f, steps)
+        n = len(steps["t"])
+        if n and int(f["grid"].attrs["dim"]) == 2:
+            from thinfilm.plate.cracks import crack_positions
+            from thinfilm.plate.crack_metrics import measure_step
+
+            x, y = f["grid/x"][()], f["grid/y"][()]
+            alpha = f["fields/alpha"][n - 1]
+            j = int(np.argmin(np.abs(y)))
+            along = crack_positions(x, alpha.reshape(len(y), len(x))[j])
+            lines.append(f"cracks at the last finished step (alpha >= {CRACK_THRESHOLD:g}): "
+                         + measure_step(f, n - 1).describe())
+            lines.append(f"  centre line y = {y[j]:.4g}: {len(along)} local maxima of alpha >= {CRACK_THRESHOLD:g}"
+                         " (the 1D reading of events and cracks.png)")
+        return lines
 
     def figures(self, results, outdir):
-        from thinfilm.plate.plots import cracks_figure
+        from thinfilm.plate.plots import crack_metrics_figure, crack_pattern_figure, cracks_figure
 
+        if results.dim == 2:
+            return [cracks_figure(results, outdir), crack_metrics_figure(results, outdir),
+                    crack_pattern_figure(results, outdir)]
         return [cracks_figure(results, outdir)]
 
     def constant_figures(self, results, outdir):
