@@ -151,6 +151,26 @@ def test_info_reports_scene_progress_energies_and_timings(runs, dim, capsys):
         assert re.search(rf"^  {label}\s+[0-9.]+ s", out, re.M), label
 
 
+def test_a_2d_run_measures_its_cracks_in_summary_info_and_figures(runs, capsys):
+    from thinfilm.plate.crack_metrics import measure_step
+
+    results = runs["2d"]
+    for name in ("crack_metrics.png", "crack_pattern.png"):
+        assert _is_png(results.parent / name), name
+    summary = json.loads((results.parent / "summary.json").read_text())
+    measured = summary["crack_metrics"]["measured"]
+    assert [m["step"] for m in measured] == list(range(21))  # a small run: every step
+    with h5py.File(results) as f:
+        last = measure_step(f, 20)
+        crack_length = f["steps/surface"][()] / f["parameters"].attrs["toughness"]
+    assert measured[-1] == last.as_json()
+    assert summary["steps"]["crack_length"] == pytest.approx(crack_length, rel=1e-14)
+    assert [m["length_energy"] for m in measured] == pytest.approx(crack_length, rel=1e-12, abs=1e-14)
+    text = _info(capsys, results)
+    assert f"cracks at the last finished step (alpha >= 0.9): {last.describe()}" in text
+    assert re.search(r"^  centre line y = 0: \d+ local maxima", text, re.M)
+
+
 def test_exact1d_plot_and_info(tmp_path, capsys):
     results = _run(tmp_path, "exact", EXACT)
     out = tmp_path / "again"

@@ -7,7 +7,9 @@ film's readings: the force conjugate to the load and the displacement it imposes
 (``/steps/force``, ``/steps/displacement``, as a solid's reaction; in SI units too when the
 scene has a ``[material]``), the crack events along ``y = 0`` (``summary.json``),
 ``cracks.png``, ``force_displacement.png`` (indenter, cantilever) and the toughness field of
-an imperfect film.
+an imperfect film; on a 2D grid also the crack metrics of the damage field
+(:mod:`thinfilm.plate.crack_metrics`: lengths, cracks, fragments, branch points, rings) in
+``summary.json``, ``thinfilm info``, ``crack_metrics.png`` and ``crack_pattern.png``.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import math
 import numpy as np
 
 from thinfilm.plate import loads, scene as plate_scene
+from thinfilm.plate.cracks import CRACK_THRESHOLD, SOUND_THRESHOLD
 from thinfilm.plate.grid import Grid
 from thinfilm.plate.imperfection import toughness_factor
 from thinfilm.plate.model import PlateModel
@@ -235,12 +238,23 @@ class PlateKind(EvolutionKind):
     def summary(self, scene, results):
         """``"events"``: the steps where the number of cracks along y = 0 changes, with their
         positions; ``"steps"``: the force and displacement of each step (and in SI units, with a
-        material; null where not recorded)."""
+        material; null where not recorded), on a 2D grid the crack length from the surface
+        energy at every step (``"crack_length"``) and ``"crack_metrics"`` at the measured steps."""
         events = crack_events(results.t, results.cracks())
         steps = {name: json_list(results.steps[name]) for name in ("force", "displacement", "force_si",
                                                                     "displacement_si") if name in results.steps}
-        return {"events": [{"t": float(t), "cracks": [float(c) for c in cracks]} for t, cracks in events],
-                "steps": steps}
+        out = {"events": [{"t": float(t), "cracks": [float(c) for c in cracks]} for t, cracks in events],
+               "steps": steps}
+        if results.dim == 2:
+            from thinfilm.plate.crack_metrics import branch_radius
+
+            p = results.parameters
+            out["crack_metrics"] = {
+                "threshold": CRACK_THRESHOLD, "sound": SOUND_THRESHOLD,
+                "branch_radius": branch_radius(float(p["eta"]), min(results.discretization.spacing)),
+                "measured": [m.as_json() for m in results.crack_metrics()]}
+            steps["crack_length"] = results.crack_length().tolist()
+        return out
 
     def report(self, scene, results, summary):
         lines = [f"t = {e['t']:.6g}: {len(e['cracks'])} crack(s) along y = 0 at "
@@ -249,15 +263,15 @@ class PlateKind(EvolutionKind):
             force = peak_force_line(results.t, results.steps["force"], results.steps.get("displacement"))
             if force is not None:
                 lines.append(force)
+        if results.dim == 2 and results.n:
+            last = results.crack_metrics()[-1]
+            lines.append(f"t = {last.t:.6g} (last step): {last.describe()}")
         return lines
 
-    def figures(self, results, outdir):
-        from thinfilm.plate.plots import cracks_figure, force_figure
-
-        return [force_figure(results, outdir), cracks_figure(results, outdir)]
-
     def info(self, f, steps):
-        """The engine's lines; the peak force also in SI units if the scene had a material."""
+        """The engine's lines; the peak force also in SI units if the scene had a material; on a
+        2D grid the crack metrics of the last finished step with the count along the centre line
+        beside them."""
         lines = super().info(f, steps)
         peak = [i for i, line in enumerate(lines) if line.startswith("peak force")]
         if peak and "force_si" in steps:
@@ -265,7 +279,28 @@ class PlateKind(EvolutionKind):
             unit = "N" if int(f["grid"].attrs["dim"]) == 2 else "N/m"
             lines.insert(peak[0] + 1, f"  in SI units: {steps['force_si'][k]:.6g} {unit} at a displacement of"
                                       f" {steps['displacement_si'][k]:.6g} m")
+        n = len(steps["t"])
+        if n and int(f["grid"].attrs["dim"]) == 2:
+            from thinfilm.plate.cracks import crack_positions
+            from thinfilm.plate.crack_metrics import measure_step
+
+            x, y = f["grid/x"][()], f["grid/y"][()]
+            alpha = f["fields/alpha"][n - 1]
+            j = int(np.argmin(np.abs(y)))
+            along = crack_positions(x, alpha.reshape(len(y), len(x))[j])
+            lines.append(f"cracks at the last finished step (alpha >= {CRACK_THRESHOLD:g}): "
+                         + measure_step(f, n - 1).describe())
+            lines.append(f"  centre line y = {y[j]:.4g}: {len(along)} local maxima of alpha >= {CRACK_THRESHOLD:g}"
+                         " (the 1D reading of events and cracks.png)")
         return lines
+
+    def figures(self, results, outdir):
+        from thinfilm.plate.plots import crack_metrics_figure, crack_pattern_figure, cracks_figure, force_figure
+
+        figures = [force_figure(results, outdir), cracks_figure(results, outdir)]
+        if results.dim == 2:
+            figures += [crack_metrics_figure(results, outdir), crack_pattern_figure(results, outdir)]
+        return figures
 
     def constant_figures(self, results, outdir):
         from thinfilm.plate.plots import toughness_figure

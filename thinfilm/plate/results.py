@@ -1,4 +1,5 @@
-"""A film's ``results.h5`` read back: the grid's rows and the cracks along ``y = 0``.
+"""A film's ``results.h5`` read back: the grid's rows, the cracks along ``y = 0`` and the
+crack metrics of a 2D film.
 
 :class:`PlateResults` is :class:`thinfilm.results.reader.Results` with the structured grid's
 coordinates at hand (``x``, ``y``, ``dim``, ``shape``) and the readings of a film's evolution
@@ -36,6 +37,7 @@ class PlateResults(Results):
             raise ResultsError(f"{self.path}: kind = {self.kind!r}, not a plate run")
         grid = self.discretization
         self.dim, self.x, self.y, self.shape = grid.dim, grid.x, grid.y, grid.shape
+        self._crack_metrics = None
 
     def centre_rows(self, name):
         """Field ``name`` along ``y = 0`` (the row nearest to it in 2D) at every finished step.
@@ -62,6 +64,43 @@ class PlateResults(Results):
             (:func:`thinfilm.plate.cracks.crack_positions`), one array per step.
         """
         return [crack_positions(self.x, row) for row in self.centre_rows("alpha")]
+
+    def crack_length(self):
+        """Crack length read from the surface energy at every finished step (2D).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Units of L: ``surface / toughness`` for a uniform film; for an imperfect one, the
+            surface energy of each step's damage at unit toughness
+            (:func:`thinfilm.plate.crack_metrics.energy_length`), so that its weaker places do
+            not count shorter.
+        """
+        from thinfilm.plate.crack_metrics import energy_length
+
+        p = self.parameters
+        if "toughness" not in self.file["fields"]:
+            return np.asarray(self.steps["surface"], dtype=float) / float(p["toughness"])
+        hx, hy = self.discretization.spacing
+        return np.array([energy_length(self.field("alpha", k), hx, hy, float(p["eta"]), int(p["at"]))
+                         for k in range(self.n)])
+
+    def crack_metrics(self):
+        """The crack metrics of a 2D run at the steps :func:`thinfilm.plate.crack_metrics.measured_steps`
+        chooses (every step of a small run; else the snapshot steps and the last).
+
+        Returns
+        -------
+        list of thinfilm.plate.crack_metrics.CrackMetrics
+            Computed once per opened file: the summary and the report of a run share them, and
+            so do its two figures.
+        """
+        from thinfilm.plate.crack_metrics import measure_step, measured_steps
+
+        if self._crack_metrics is None:
+            steps = measured_steps(len(self.x) * len(self.y), self.t, self.parameters.get("snapshots"))
+            self._crack_metrics = [measure_step(self.file, int(k)) for k in steps]
+        return self._crack_metrics
 
     @property
     def width(self):
