@@ -29,6 +29,7 @@ from thinfilm.engine.evolution import Engine
 from thinfilm.results.info import seconds
 from thinfilm.results.reader import Results
 from thinfilm.results.writer import ResultsWriter, ResumeError, write_summary
+from thinfilm.steps import load_steps
 
 __all__ = ["run", "Setup", "EvolutionKind", "RunInterrupted", "load_steps", "peak_force_line", "json_list"]
 
@@ -54,15 +55,6 @@ def run(scene, outdir, progress=lambda n: None, resume=False):
         ``results``, ``summary``, ``figures`` (paths) and ``report`` (lines for the user).
     """
     return kinds.get(scene.kind).run(scene, Path(outdir), progress=progress, resume=resume)
-
-
-def load_steps(load):
-    """The loads of a scene's steps: its explicit list ``load.values`` if it has one, else
-    ``t_0 = 0, ..., t_max`` in ``steps`` equal steps."""
-    values = getattr(load, "values", None)
-    if values is not None:
-        return np.asarray(values, dtype=float)
-    return np.linspace(0.0, load.t_max, load.steps + 1)
 
 
 def peak_force_line(t, force, displacement=None):
@@ -224,7 +216,9 @@ class EvolutionKind:
 
         Every finished step is in ``results.h5`` (flushed) as soon as it is done, so a run
         that is killed leaves a valid file, and ``resume=True`` continues it from its last
-        finished step to the same results as an uninterrupted run. Ctrl-C finishes and saves
+        finished step to the same results as an uninterrupted run; the scene may extend the
+        stored one's loads (:mod:`thinfilm.resume`), and the run then continues to the new
+        ``t_max`` as one uninterrupted run to it would. Ctrl-C finishes and saves
         the current step, closes the file and raises :class:`RunInterrupted` (a second Ctrl-C
         stops at once); a solver failure (:class:`thinfilm.engine.evolution.EvolutionError`)
         propagates with the finished steps saved.
@@ -259,8 +253,20 @@ class EvolutionKind:
                 raise
             raise ResumeError(f"{results} cannot be read back to resume it (cut in the middle of a write: {err});"
                               " run with --force to start over") from None
+        t_values = load_steps(scene.load)
+        if writer.continuation is not None and writer.continuation.extended:
+            c = writer.continuation
+            log.info(f"extending {results} from {c.planned_before - 1} to {c.planned - 1} steps"
+                     f" (t_max {c.t_max_before:g} -> {float(t_values[-1]):g})")
         if history:
             log.info(f"resuming {results} after step {len(history) - 1} (t = {history[-1].t:g})")
+            stored = np.array([state.t for state in history])
+            if not np.array_equal(stored, t_values[: stored.size]):
+                # written before the loads were exact decimals (thinfilm.steps): the evolution
+                # continues from the stored steps at this version's loads
+                log.warning(f"the loads stored in {results} differ from this version's by up to"
+                            f" {np.max(np.abs(stored - t_values[: stored.size])):.3g}; the run continues at"
+                            " this version's loads")
             progress(len(history))
         with _StopOnInterrupt() as stop:
             def on_step(record, state):
@@ -270,8 +276,7 @@ class EvolutionKind:
                     raise KeyboardInterrupt
 
             try:
-                engine.run(load_steps(scene.load), on_step=on_step, progress=progress, history=history,
-                           guess=setup.guess)
+                engine.run(t_values, on_step=on_step, progress=progress, history=history, guess=setup.guess)
             except KeyboardInterrupt:
                 raise RunInterrupted(results, writer.trim()) from None
             finally:

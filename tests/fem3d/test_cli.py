@@ -1,8 +1,8 @@
-"""A finite-element run through the command line: resume, plot, info.
+"""A finite-element run through the command line: resume, extend, plot, info.
 
-Resuming a ``kind = "fem"`` run from a results file cut after some steps gives the same
-results, bit for bit, as the uninterrupted run (both on one thread, in processes of their
-own: a threaded direct solver need not sum in the same order twice).
+Resuming a ``kind = "fem"`` run from a results file cut after some steps, or extending a
+finished run with more loads, gives the same results, bit for bit, as the uninterrupted run
+(all on one thread, in processes of their own, as the scans run).
 """
 
 import json
@@ -13,6 +13,7 @@ import sys
 
 import h5py
 import numpy as np
+import pytest
 
 from thinfilm.cli import main
 
@@ -24,14 +25,14 @@ COARSE = {"model.eps": 25.0, "mesh.h": 10.0, "mesh.h_coarse": 50.0,
 _ONE_THREAD = {"MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
 
 
-def _args(out, *options):
+def _args(out, *options, overrides=COARSE):
     return ["run", str(CASES / "lpanel.toml"), "--out", str(out), "--quiet", *options] + [
-        f"--set={key}={json.dumps(value)}" for key, value in COARSE.items()]
+        f"--set={key}={json.dumps(value)}" for key, value in overrides.items()]
 
 
-def _run(out, *options):
+def _run(out, *options, overrides=COARSE):
     env = dict(os.environ, PYTHONPATH=str(ROOT), **_ONE_THREAD)
-    done = subprocess.run([sys.executable, "-m", "thinfilm", *_args(out, *options)], env=env,
+    done = subprocess.run([sys.executable, "-m", "thinfilm", *_args(out, *options, overrides=overrides)], env=env,
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
 
@@ -42,9 +43,16 @@ def _read(path):
             f"fields/{k}": v[()] for k, v in f["fields"].items()}
 
 
-def test_a_cut_fem_run_resumes_to_the_same_results(tmp_path, capsys):
-    full, cut = tmp_path / "full", tmp_path / "cut"
-    _run(full)
+@pytest.fixture(scope="module")
+def full(tmp_path_factory):
+    """The uninterrupted run's directory."""
+    out = tmp_path_factory.mktemp("fem") / "full"
+    _run(out)
+    return out
+
+
+def test_a_cut_fem_run_resumes_to_the_same_results(full, tmp_path, capsys):
+    cut = tmp_path / "cut"
     reference = _read(full / "results.h5")
     assert len(reference["steps/t"]) == 16
     assert reference["steps/surface"][-1] > 0   # the crack appeared: resuming crosses damage
@@ -70,3 +78,28 @@ def test_a_cut_fem_run_resumes_to_the_same_results(tmp_path, capsys):
     assert main(["info", str(cut / "results.h5")]) == 0
     text = capsys.readouterr().out
     assert "fem" in text and "16" in text
+
+
+def test_a_fem_run_extended_with_more_loads_is_the_longer_run(full, tmp_path, capsys):
+    """The run to the first 10 loads of the list (damage, no crack yet), resumed with the whole
+    list (and another snapshot: [output] only draws), is the uninterrupted run; a list that
+    changes a computed load is refused, naming load.t, and leaves the results as they were."""
+    out = tmp_path / "out"
+    short = {**COARSE, "load.t": COARSE["load.t"][:10], "output.snapshots": [0.1]}
+    _run(out, overrides=short)
+    assert 0 < _read(out / "results.h5")["steps/surface"][-1] < 1e-3 * _read(full / "results.h5")["steps/surface"][-1]
+    before = (out / "results.h5").read_bytes()
+    moved = {**COARSE, "load.t": COARSE["load.t"][:5] + [0.11] + COARSE["load.t"][6:]}
+    capsys.readouterr()
+    assert main(_args(out, "--resume", overrides=moved)) == 2
+    err = capsys.readouterr().err
+    assert "load.t: the loads computed would change (step 5: t = 0.1 -> 0.11)" in err, err
+    assert (out / "results.h5").read_bytes() == before
+    _run(out, "--resume")
+    reference, extended = _read(full / "results.h5"), _read(out / "results.h5")
+    assert extended.keys() == reference.keys() and len(extended["steps/t"]) == 16
+    for name, value in reference.items():
+        if not name.startswith("steps/time_"):
+            np.testing.assert_array_equal(extended[name], value, err_msg=name)
+    summary, long_summary = (json.loads((d / "summary.json").read_text()) for d in (out, full))
+    assert summary["steps"] == long_summary["steps"] and summary["events"] == long_summary["events"]

@@ -385,3 +385,45 @@ def test_the_test_system_is_the_model_operator_away_from_the_edges(nu):
     diff = (K - K_model).tocsr()[inner]
     assert abs(diff).max() <= 1e-12 * abs(K_model).max()
     assert abs(K_model.tocsr()[inner]).max() > 0
+
+
+# Run in a process of its own: MKL fixes its threads and its reproducibility branch when it
+# loads, and this test process runs it on one thread (tests/conftest.py).
+_REPEATED_FACTORIZATIONS = """
+import hashlib, numpy as np, scipy.sparse as sp
+from thinfilm.solvers.linear import DirectSolver, pardiso_reproducible
+m = 120
+rng = np.random.default_rng(0)
+L = sp.diags([np.ones(m - 1), -2.0 * np.ones(m), np.ones(m - 1)], [-1, 0, 1])
+laplace = sp.kronsum(L, L)
+K = (laplace @ sp.diags(1e-3 + rng.random(m * m)) @ laplace + 1e-2 * sp.identity(m * m)).tocsr()
+f = rng.random(m * m)
+solver = DirectSolver(K, backend="pardiso")
+digests = set()
+for _ in range(16):
+    u, _ = solver(K, f)  # a new numeric factorization each time
+    digests.add(hashlib.sha256(u.tobytes()).hexdigest())
+print(pardiso_reproducible(), len(digests))
+"""
+
+
+@pytest.mark.skipif(not pardiso_available(), reason="pypardiso not installed")
+@pytest.mark.parametrize("cbwr, branch", [(None, 2), ("COMPATIBLE", 3)])
+def test_pardiso_on_two_threads_gives_the_same_bits_every_time(cbwr, branch):
+    """Sixteen factorizations and solves of one system (a variable-coefficient biharmonic on
+    a 120 x 120 grid) on two MKL threads give one solution, bit for bit: the solver turns on
+    MKL's conditional numerical reproducibility (branch AUTO), or keeps the branch MKL_CBWR
+    names. (Without it, MKL_CBWR empty, the loop gave two solutions 3e-12 apart in most
+    processes.)"""
+    import os
+    import subprocess
+    import sys
+
+    from tests.helpers import ROOT
+
+    env = {k: v for k, v in os.environ.items() if k != "MKL_CBWR"}
+    env.update(PYTHONPATH=str(ROOT), MKL_NUM_THREADS="2", **({"MKL_CBWR": cbwr} if cbwr else {}))
+    done = subprocess.run([sys.executable, "-c", _REPEATED_FACTORIZATIONS], env=env, cwd=ROOT, capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == [str(branch), "1"]

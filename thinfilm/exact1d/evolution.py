@@ -14,6 +14,7 @@ import numpy as np
 
 from onedim.evolution import Event, Evolution
 from onedim.partition import partition_elastic_coefficient
+from thinfilm.steps import load_steps
 
 
 @dataclass(frozen=True)
@@ -72,7 +73,7 @@ def run_exact1d(scene, progress=lambda n: None):
         ``{"refined": Track, "grid": Track}``.
     """
     m = scene.model
-    t_values = np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)
+    t_values = load_steps(scene.load)
     evolutions = {
         "refined": Evolution(m.length, m.lam, m.toughness, scene.grid.cells, scene.load.t_max, refine=True),
         "grid": Evolution(m.length, m.lam, m.toughness, scene.grid.cells, scene.load.t_max, refine=False),

@@ -2,8 +2,12 @@
 
 :data:`KIND` is what :mod:`thinfilm.kinds` finds. Its runs are not driven by the engine: the
 global-minimizer evolution of :mod:`onedim` is computed in one go
-(:mod:`thinfilm.exact1d.evolution`) and written whole (:mod:`thinfilm.exact1d.results`), so
-there is nothing to resume.
+(:mod:`thinfilm.exact1d.evolution`) and written whole (:mod:`thinfilm.exact1d.results`). A
+resumed run (``--resume``) is checked against the stored scene as any other
+(:func:`thinfilm.resume.check_resume`: only the loads may be extended, and ``[output]``
+changed) and then computed again in one go: the exact evolution locates its events within
+``[0, t_max]``, so a longer run is not the shorter one continued but the same computation to
+the new ``t_max`` (a few seconds), and its results are those of an uninterrupted run.
 """
 
 from __future__ import annotations
@@ -19,18 +23,37 @@ class Exact1DKind:
     """``kind = "exact1d"``: the exact evolution of a film under pure bending."""
 
     name = "exact1d"
-    resumable = False
+    resumable = True
     required_datasets = ()
 
     def parse(self, source, data, text):
         return exact_scene.parse(source, data, text)
 
     def run(self, scene, outdir, progress=lambda n: None, resume=False):
-        """Compute both tracks, write ``results.h5``, ``summary.json`` and the two figures."""
+        """Compute both tracks, write ``results.h5``, ``summary.json`` and the two figures.
+
+        ``resume=True`` first checks the scene against the one ``outdir/results.h5`` was
+        written from (:class:`thinfilm.resume.ResumeError` if it may not continue it; the
+        file is left as it was), then computes the whole evolution again.
+        """
         from thinfilm.exact1d.evolution import run_exact1d
         from thinfilm.exact1d.plots import plot_exact1d
         from thinfilm.exact1d.results import write_exact1d
 
+        results = Path(outdir) / "results.h5"
+        if resume and results.exists():
+            import h5py
+
+            from thinfilm.results.reader import attrs_dict
+            from thinfilm.resume import ResumeError, check_resume
+
+            try:
+                with h5py.File(results, "r") as f:
+                    attrs = attrs_dict(f)
+            except OSError as err:
+                raise ResumeError(f"{results} cannot be read back to resume it ({err}); run with --force to start"
+                                  " over") from None
+            check_resume(results, attrs, scene)
         tracks = run_exact1d(scene, progress=progress)
         results, summary = write_exact1d(Path(outdir), scene, tracks)
         figures = plot_exact1d(results, outdir)

@@ -29,6 +29,7 @@ from thinfilm.plate.sequencing import CoarseDamage
 from thinfilm.plate.symmetry import GridSymmetry
 from thinfilm.run import EvolutionKind, Setup, json_list, peak_force_line
 from thinfilm.scene import SceneError
+from thinfilm.steps import load_steps
 from thinfilm.solvers.linear import make_solver
 
 __all__ = ["KIND", "PlateKind", "build_grid", "make_model", "make_symmetry", "resolution_warnings", "describe"]
@@ -144,7 +145,7 @@ def make_symmetry(scene, grid, load):
                          f'= "{group}": the clamped edges ({", ".join(load.clamped)}) are not mapped onto'
                          f' themselves by its mirrors; use "none" or a group that keeps them')
     # Every load of the run (a non-proportional load may change shape with t).
-    for t in np.linspace(0.0, scene.load.t_max, scene.load.steps + 1)[1:]:
+    for t in load_steps(scene.load)[1:]:
         w = load.w(t)
         scale = float(np.max(np.abs(w)))
         asymmetry = symmetry.asymmetry(w)

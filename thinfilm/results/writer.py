@@ -6,7 +6,8 @@ driven by the engine, whatever its kind::
 
     /                  attrs: format = "thinfilm-results", format_version, kind, scene (the
                        TOML text), scene_source, scene_overrides (JSON, if any), thinfilm_version,
-                       numpy_version, numba_version, h5py_version, created (UTC, ISO 8601)
+                       numpy_version, numba_version, h5py_version, created (UTC, ISO 8601);
+                       extended (JSON, if a resumed run extended the loads: thinfilm.resume)
     /parameters        attrs: the kind's parameters (t_max and steps always)
     /<group>           attrs only, one group per table of the kind's choosing (e.g. /material)
     /grid or /mesh     the discretization (thinfilm.discretization)
@@ -37,7 +38,8 @@ import numba
 import numpy as np
 
 from thinfilm import __version__
-from thinfilm.results.reader import FORMAT, FORMAT_VERSION, finished_steps
+from thinfilm.results.reader import FORMAT, FORMAT_VERSION, attrs_dict, finished_steps
+from thinfilm.resume import ResumeError, check_resume
 
 __all__ = ["ResumeError", "ResultsWriter", "STEP_FIELDS", "INTEGER_STEP_FIELDS", "root_attributes",
            "write_json", "write_summary"]
@@ -49,10 +51,6 @@ STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_
 #: The integer ones among them.
 INTEGER_STEP_FIELDS = ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials", "trials_accepted",
                        "saddles_left", "u_rescalable")
-
-
-class ResumeError(RuntimeError):
-    """A results file that cannot be continued; the message is one line for the user."""
 
 
 def root_attributes(scene):
@@ -112,7 +110,16 @@ class ResultsWriter:
     groups : dict, optional
         ``{group name: attributes}``, written as attribute-only groups (e.g. ``material``).
     resume : bool
-        Continue an existing file written by the same scene (text and overrides).
+        Continue an existing file written by the same scene, or by one that the scene extends
+        (:func:`thinfilm.resume.check_resume`, checked before the file is opened for writing:
+        a refused scene leaves it as it was). The root's scene attributes and ``/parameters``
+        then take the new scene's, and an extension is recorded in the root attribute
+        ``extended``.
+
+    Attributes
+    ----------
+    continuation : thinfilm.resume.Continuation or None
+        What a resumed run continues (None for a new file).
     """
 
     def __init__(self, path, scene, parameters, discretization, *, components=None, observables=(),
@@ -121,19 +128,17 @@ class ResultsWriter:
         self.observables = tuple(observables)
         self.step_fields = STEP_FIELDS + self.observables
         constant = constant or {}
+        self.continuation = None
         if resume:
+            with h5py.File(self.path, "r") as f:  # read-only: a refused resume leaves the file as it was
+                self.continuation = check_resume(self.path, attrs_dict(f), scene)
+                for name, values in constant.items():
+                    if not np.array_equal(f["fields"][name][()], values):
+                        raise ResumeError(f"{self.path}: this installation computes another {name} field than"
+                                          " the stored one (numpy's random generator changed?); it cannot be"
+                                          " resumed (run with --force)")
             self.file = h5py.File(self.path, "r+")
-            stored = self.file.attrs.get("scene", "")
-            if stored != scene.text or self.file.attrs.get("scene_overrides", None) != getattr(scene, "overrides", None):
-                self.file.close()
-                raise ResumeError(f"{self.path} was written by a different scene (its text or its --set"
-                                  " overrides differ); it cannot be resumed (run with --force to start over)")
-            for name, values in constant.items():
-                if not np.array_equal(self.file["fields"][name][()], values):
-                    self.file.close()
-                    raise ResumeError(f"{self.path}: this installation computes another {name} field than the"
-                                      " stored one (numpy's random generator changed?); it cannot be resumed"
-                                      " (run with --force)")
+            self._continue_with(scene, parameters)
             n = self.trim()  # a step whose write was cut short is not finished
             for name in self.step_fields:
                 if name not in self.file["steps"]:   # written before the record existed
@@ -163,6 +168,28 @@ class ResultsWriter:
             ds = fields.create_dataset(name, data=np.asarray(values, dtype=np.float64))
             ds.attrs["per_step"] = False
         f.flush()
+
+    def _continue_with(self, scene, parameters):
+        """The resumed file takes the new scene: its text, source and overrides at the root,
+        its parameters in ``/parameters`` (the same model, perhaps more steps and other
+        snapshots), and an extension is appended to the root's ``extended`` (JSON list of
+        ``{"after_step", "t_max", "steps", "date"}``: where the run stood and what it was
+        planned to before)."""
+        f, c = self.file, self.continuation
+        if c.extended:
+            history = json.loads(f.attrs.get("extended", "[]"))
+            history.append({"after_step": finished_steps(f) - 1, "t_max": c.t_max_before, "steps": c.steps_before,
+                            "date": datetime.now(timezone.utc).isoformat(timespec="seconds")})
+            f.attrs["extended"] = json.dumps(history)
+        f.attrs["scene"], f.attrs["scene_source"] = scene.text, scene.source
+        if getattr(scene, "overrides", None):
+            f.attrs["scene_overrides"] = scene.overrides
+        elif "scene_overrides" in f.attrs:
+            del f.attrs["scene_overrides"]
+        group = f["parameters"]
+        for key in list(group.attrs):
+            del group.attrs[key]
+        group.attrs.update(parameters)
 
     @staticmethod
     def _create_step_dataset(steps, name, n):

@@ -34,6 +34,12 @@ Kinds
     ``"direct"`` unless the system is larger than the measured crossover (see
     :data:`AUTO_AMG_MIN_UNKNOWNS` and ``benchmarks/results/usolve.md``).
 
+PARDISO on several threads does not sum in the same order twice (its parallel factorization
+schedules work dynamically): two runs of one scene then differ by round-off (5e-11 in alpha
+on a 200 x 40 strip). The direct solver turns on MKL's conditional numerical reproducibility
+before PARDISO's first call (:func:`pardiso_reproducible`), which makes them agree to the last
+bit (``docs/results.md#reproducibility``).
+
 Every solve returns an :class:`SolveInfo`; a solve that does not reach its tolerance, or that
 produces a non-finite value, raises :class:`LinearSolverError`.
 
@@ -43,8 +49,10 @@ near-nullspace from the model (:func:`thinfilm.plate.operators.near_nullspace` f
 
 from __future__ import annotations
 
+import ctypes
 import functools
 import math
+import os
 import time
 from dataclasses import dataclass
 
@@ -61,6 +69,7 @@ __all__ = [
     "AMGSolver",
     "make_solver",
     "pardiso_available",
+    "pardiso_reproducible",
     "AUTO_AMG_MIN_UNKNOWNS",
     "KINDS",
 ]
@@ -304,10 +313,58 @@ def pardiso_available() -> bool:
     try:
         import pypardiso  # noqa: F401
 
-        pypardiso.PyPardisoSolver(mtype=2)
+        solver = pypardiso.PyPardisoSolver(mtype=2)
     except Exception:  # ImportError, or the MKL runtime library not found
         return False
+    _reproducible(solver.libmkl)
     return True
+
+
+#: MKL's conditional numerical reproducibility branches (``mkl_service.h``): ``MKL_CBWR_Get``
+#: of all branches gives 1 when it is off, 2 for AUTO (the code paths of this CPU, the same
+#: from run to run), 3 for COMPATIBLE (the same on every x86 CPU, slower).
+MKL_CBWR_ALL, MKL_CBWR_BRANCH_OFF, MKL_CBWR_AUTO = -1, 1, 2
+_mkl_branch: list = []  # MKL's branch, once asked for (MKL fixes it once per process)
+
+
+def _reproducible(libmkl) -> int:
+    """Turn on CNR in the loaded MKL (``libmkl``, a ctypes library) unless ``MKL_CBWR`` is
+    set, once per process; MKL's branch (:func:`pardiso_reproducible`)."""
+    if not _mkl_branch:
+        try:
+            get, set_ = libmkl.MKL_CBWR_Get, libmkl.MKL_CBWR_Set
+        except AttributeError:  # an MKL without CNR
+            _mkl_branch.append(0)
+            return 0
+        for function in (get, set_):
+            function.restype, function.argtypes = ctypes.c_int, [ctypes.c_int]
+        if "MKL_CBWR" not in os.environ and get(MKL_CBWR_ALL) == MKL_CBWR_BRANCH_OFF:
+            set_(MKL_CBWR_AUTO)
+        _mkl_branch.append(int(get(MKL_CBWR_ALL)))
+    return _mkl_branch[0]
+
+
+def pardiso_reproducible() -> int:
+    """MKL's conditional numerical reproducibility (CNR) branch for PARDISO.
+
+    Threaded PARDISO without CNR sums in an order that changes from one factorization to the
+    next, so two runs of a scene differ at round-off. With CNR (branch AUTO) it gives the
+    same bits every time on one machine: measured the same on 1 and 2 threads, though MKL
+    promises it only for a fixed number of threads. MKL fixes its branch at its first
+    computation, so the solver turns CNR on (branch AUTO) when it loads MKL, before PARDISO's
+    first call (:func:`pardiso_available`, the direct solver's backend); a branch the user
+    chose with the environment variable ``MKL_CBWR`` is kept (``MKL_CBWR=``, empty, leaves CNR
+    off: MKL's fastest).
+
+    Returns
+    -------
+    int
+        :data:`MKL_CBWR_AUTO` (2) as turned on here, 3 for COMPATIBLE, 1 if CNR is off, 0 if
+        this MKL cannot say, -1 without PARDISO.
+    """
+    if not pardiso_available():
+        return -1
+    return _mkl_branch[0]
 
 
 class _PardisoBackend:
@@ -325,6 +382,7 @@ class _PardisoBackend:
 
         self._err = pypardiso.pardiso_wrapper.PyPardisoError
         self.ps = pypardiso.PyPardisoSolver(mtype=2)
+        _reproducible(self.ps.libmkl)  # before PARDISO's first call: MKL fixes its branch then
         self.ps.set_iparm(12, 0)  # CSR input, no transposed solve
         upper = sp.triu(pattern.index_matrix(), format="csr")
         upper.sort_indices()
