@@ -70,3 +70,16 @@ def test_a_cut_fem_run_resumes_to_the_same_results(tmp_path, capsys):
     assert main(["info", str(cut / "results.h5")]) == 0
     text = capsys.readouterr().out
     assert "fem" in text and "16" in text
+
+
+def test_steps_that_cannot_fit_the_memory_are_refused_at_once(tmp_path, capsys):
+    # Its mesh is only known once gmsh has made it: the steps alone are estimated.
+    scene = tmp_path / "beam.toml"
+    scene.write_text((CASES / "three_point_bending_I.toml").read_text())
+    assert main(["run", str(scene), "--set", "load.steps=10000000000"]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and "Traceback" not in captured.err, captured.err
+    assert lines[0].startswith(f"thinfilm: error: {scene}: load.steps = 10000000000: the run needs about 200 TB of memory (1e+10 steps x 20 kB)")
+    assert "available on this machine; use fewer steps" in lines[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["beam.toml"]
