@@ -3,7 +3,9 @@
 
 Library code raises exceptions; only this module turns them into messages and exit codes.
 A bad scene is reported in one line on stderr with exit status 2, before anything is
-computed or written; so is an output directory that already holds results (unless
+computed or written; so is a scene whose run cannot fit this machine's memory, or is
+estimated to take longer than the time limit (unless ``--no-time-limit``:
+:mod:`thinfilm.resources`), and an output directory that already holds results (unless
 ``--resume`` or ``--force``). Ctrl-C stops a run driven by the engine after saving its
 finished steps (exit 130); a solver failure keeps them too (exit 1). Scenes are run by their
 kind (:mod:`thinfilm.kinds`), found from ``[model] kind``.
@@ -18,7 +20,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from thinfilm import __version__, kinds
+from thinfilm import __version__, kinds, resources
 from thinfilm.scene import SceneError, load_scene
 
 EXIT_BAD_INPUT = 2
@@ -77,8 +79,14 @@ def _overrides(args):
     return out
 
 
+def _check_size(scene, args):
+    """Refuse a scene whose run cannot fit this machine (:func:`thinfilm.resources.check`)."""
+    resources.check(scene, time_limit=None if args.no_time_limit else resources.TIME_LIMIT)
+
+
 def _run(args):
     scene = load_scene(args.scene, overrides=_overrides(args))
+    _check_size(scene, args)
     outdir = Path(args.out) if args.out else default_outdir(args.scene)
     if outdir.exists() and not outdir.is_dir():
         raise SceneError(args.scene, None, f"output path {outdir} exists and is not a directory (use --out DIR)")
@@ -101,9 +109,13 @@ def _compare(args):
     if not callable(getattr(kind, "compare", None)):
         raise SceneError(args.scene, "model.kind", f'= "{scene.kind}": compare needs a kind with an exact'
                          ' counterpart ("plate")')
+    check = getattr(kind, "check_compare", None)
+    if callable(check):
+        check(scene)
     outdir = Path(args.out) if args.out else default_outdir(args.scene)
     results = outdir / "results.h5"
     if not results.exists():
+        _check_size(scene, args)
         status = _run_scene(scene, outdir, args)
         if status:
             return status
@@ -180,7 +192,10 @@ def _scan(args):
                         " --scheduler the cluster's own workers run the scan")
     if args.workers is not None and args.workers < 1:
         raise ScanError(args.scan, None, f"--workers {args.workers}: must be an integer >= 1")
-    plan = load_plan(args.scan, _overrides(args))  # every run's scene validated: nothing starts on a bad one
+    # every run's scene validated, and checked against this machine unless another cluster
+    # runs them: nothing starts on a bad one
+    check = None if args.scheduler else (lambda scene: _check_size(scene, args))
+    plan = load_plan(args.scan, _overrides(args), check=check)
     outdir = Path(args.out) if args.out else default_outdir(args.scan)
     if outdir.exists() and not outdir.is_dir():
         raise ScanError(args.scan, None, f"output path {outdir} exists and is not a directory (use --out DIR)")
@@ -244,6 +259,9 @@ def build_parser():
     run.add_argument("--resume", action="store_true",
                      help="continue the run in the output directory from its last finished step")
     run.add_argument("--force", action="store_true", help="overwrite results already in the output directory")
+    run.add_argument("--no-time-limit", action="store_true",
+                     help="run a scene estimated to take longer than an hour (memory stays limited to what the"
+                          " machine has)")
     run.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
                      help="set a scene key for this run, the value in TOML (e.g. --set model.toughness=1.5"
                           " --set 'domain.cells=[200, 200]'); stored with the results, and needed again to"
@@ -255,6 +273,7 @@ def build_parser():
     cmp_.add_argument("--quiet", action="store_true", help="no progress bar and no report")
     cmp_.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
                       help="set a scene key, as for run")
+    cmp_.add_argument("--no-time-limit", action="store_true", help="as for run")
     cmp_.set_defaults(func=_compare)
     _add_inspect_commands(sub)
     scan = sub.add_parser("scan", help="run a parameter scan (a base scene, keys varied) on Dask and tabulate it",
@@ -275,6 +294,8 @@ def build_parser():
     scan.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
                       help="set a scene key in every run, as [set] does (value in TOML); repeatable. Give the"
                       " same --set to --resume")
+    scan.add_argument("--no-time-limit", action="store_true",
+                      help="run scenes estimated to take longer than an hour each (memory stays limited)")
     scan.add_argument("--quiet", action="store_true", help="no progress bar and no report")
     scan.set_defaults(func=_scan)
     return parser

@@ -53,7 +53,10 @@ class ModelKind(Protocol):
         finished steps' records ``steps``)."""
 
     # Optional: ``compare(results, outdir) -> (paths, lines)``, the run drawn against an exact
-    # counterpart (``thinfilm compare``; the film against the exact 1D evolution).
+    # counterpart (``thinfilm compare``; the film against the exact 1D evolution), with
+    # ``check_compare(scene)`` raising SceneError for a scene that has none;
+    # ``estimate(scene) -> thinfilm.resources.Estimate``, what a run needs (memory, time),
+    # which the command line checks against the machine before anything is built.
 
 
 #: Kinds that ship with the toolkit: name -> module that defines ``KIND``.

@@ -516,8 +516,9 @@ def plot_run(results, outdir=None, loads=None, animate=False, xdmf=True, opener=
     outdir : str or Path, optional
         Where to write; defaults to the file's directory.
     loads : sequence of float, optional
-        Loads of the snapshot figures (default: the scene's ``[output] snapshots``, stored
-        in ``/parameters``, else 5 spread over the finished steps).
+        Loads of the snapshot figures, in ``[0, t_max]`` (default: the scene's ``[output]
+        snapshots``, stored in ``/parameters``, else 5 spread over the finished steps). A load
+        beyond the last finished step of a run that stopped early draws that step.
     animate : bool, optional
         Also write ``alpha.gif``.
     xdmf : bool, optional
@@ -539,6 +540,10 @@ def plot_run(results, outdir=None, loads=None, animate=False, xdmf=True, opener=
         if res.n == 0:
             raise ResultsError(f"{res.path}: no finished step to plot")
         kind = kinds.get(res.kind)
+        outside = [v for v in loads or () if not 0.0 <= v <= res.t_max]
+        if outside:
+            raise ResultsError(f"{res.path}: snapshot loads (--t) {' '.join(f'{v:g}' for v in outside)}: must be in"
+                               f" [0, {res.t_max:g}], the run's loads (t_max = {res.t_max:g})")
         outdir = Path(outdir) if outdir is not None else res.path.parent
         outdir.mkdir(parents=True, exist_ok=True)
         if loads is None and "snapshots" in res.parameters:
@@ -574,5 +579,4 @@ def plot_results(results, outdir=None, loads=None, animate=False):
         kind = f.attrs["kind"]
         kind = kind.decode() if isinstance(kind, bytes) else str(kind)
     outdir = Path(outdir) if outdir is not None else path.parent
-    outdir.mkdir(parents=True, exist_ok=True)
-    return kind, kinds.get(kind).plot(path, outdir, loads=loads, animate=animate)
+    return kind, kinds.get(kind).plot(path, outdir, loads=loads, animate=animate)  # which makes outdir

@@ -186,6 +186,14 @@ class EvolutionKind:
         """The attributes of ``/parameters`` (``t_max`` and ``steps`` among them)."""
         raise NotImplementedError
 
+    def estimate(self, scene):
+        """What the run needs (:class:`thinfilm.resources.Estimate`), from the scene alone;
+        by default from its load steps (:func:`thinfilm.resources.steps_estimate`): a kind
+        whose nodes the scene tells adds theirs."""
+        from thinfilm.resources import steps_estimate
+
+        return steps_estimate(scene)
+
     def warnings(self, scene) -> list[str]:
         """Warnings for the user before the run starts (e.g. an unresolved length)."""
         return []

@@ -103,3 +103,16 @@ def test_a_fem_run_extended_with_more_loads_is_the_longer_run(full, tmp_path, ca
             np.testing.assert_array_equal(extended[name], value, err_msg=name)
     summary, long_summary = (json.loads((d / "summary.json").read_text()) for d in (out, full))
     assert summary["steps"] == long_summary["steps"] and summary["events"] == long_summary["events"]
+
+
+def test_steps_that_cannot_fit_the_memory_are_refused_at_once(tmp_path, capsys):
+    # Its mesh is only known once gmsh has made it: the steps alone are estimated.
+    scene = tmp_path / "beam.toml"
+    scene.write_text((CASES / "three_point_bending_I.toml").read_text())
+    assert main(["run", str(scene), "--set", "load.steps=10000000000"]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and "Traceback" not in captured.err, captured.err
+    assert lines[0].startswith(f"thinfilm: error: {scene}: load.steps = 10000000000: the run needs about 200 TB of memory (1e+10 steps x 20 kB)")
+    assert "available on this machine; use fewer steps" in lines[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["beam.toml"]

@@ -138,7 +138,7 @@ def test_material_scene_equals_the_non_dimensional_one():
     (scene(load='kind = "bending"\nradius = 0.3\nt_max = 1.0\nsteps = 4'),
      'load.radius = 0.3: is not used by load.kind = "bending"'),
     (scene(load='kind = "cantilever"\nt_max = 1.0\nsteps = 4'), "domain.x = [-0.5, 0.5]: the cantilever is clamped at x = 0"),
-    (scene(load='kind = "field"\nfile = "nowhere.npz"\nt_max = 1.0\nsteps = 4'), 'load.file = "nowhere.npz": cannot be read'),
+    (scene(load='kind = "field"\nfile = "nowhere.npz"\nt_max = 1.0\nsteps = 4'), 'load.file = "nowhere.npz": no such file'),
     (scene(load='kind = "field"\nfile = "w.txt"\nt_max = 1.0\nsteps = 4'), 'load.file = "w.txt": must end in .npz, .h5 or .hdf5'),
     (scene(model="lam = 30.0", extra="[material]\nE = 1e9\nh = 1e-6\nGc = 1.0\nbond_stiffness = 1e12\nL = 1e-3\n"),
      "model.lam: not allowed with a [material] table"),

@@ -118,6 +118,16 @@ def test_the_command_refuses_a_bad_run_with_status_2_and_starts_nothing(tmp_path
     assert "\n" not in err and not out.exists()
 
 
+def test_the_command_refuses_a_run_that_cannot_fit_and_starts_nothing(tmp_path, capsys):
+    path = _plan(tmp_path, '[vary]\n"grid.cells" = [200, 1000000000]\n')
+    out = tmp_path / "out"
+    assert main(["scan", str(path), "--out", str(out), "--no-time-limit"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"thinfilm: error: {path}: run 1 (grid.cells = 1000000000): {BASE}: grid.cells ="
+                          " 1000000000: the run needs about")
+    assert "available on this machine" in err and "\n" not in err and not out.exists()
+
+
 def test_the_command_refuses_bad_options_with_status_2(tmp_path, capsys):
     path = _plan(tmp_path, '[vary]\n"model.lam" = [3.0]\n')
     assert main(["scan", str(path), "--workers", "0"]) == 2

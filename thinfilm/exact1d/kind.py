@@ -29,6 +29,12 @@ class Exact1DKind:
     def parse(self, source, data, text):
         return exact_scene.parse(source, data, text)
 
+    def estimate(self, scene):
+        """Memory and time of the run (:func:`thinfilm.exact1d.resources.estimate`)."""
+        from thinfilm.exact1d.resources import estimate
+
+        return estimate(scene)
+
     def run(self, scene, outdir, progress=lambda n: None, resume=False):
         """Compute both tracks, write ``results.h5``, ``summary.json`` and the two figures.
 

@@ -79,6 +79,7 @@ def plot_exact1d(results, outdir=None):
     results = Path(results)
     outdir = Path(outdir) if outdir is not None else results.parent
     data = read_track(results, "refined")
+    outdir.mkdir(parents=True, exist_ok=True)
     paths = [outdir / "energy.png", outdir / "cracks.png"]
     _energy_figure(data, paths[0])
     _cracks_figure(data, paths[1])

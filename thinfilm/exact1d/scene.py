@@ -16,6 +16,7 @@
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 from onedim.fragment import lam_from_winkler, winkler_from_lam
@@ -90,15 +91,29 @@ class Exact1DScene:
     overrides: str | None = None
 
 
+#: The largest ``lam`` whose ``winkler = 4 lam^4`` is a finite float64, and the least whose
+#: ``winkler`` is a positive (normal) one.
+LAM_MAX = (sys.float_info.max / 4.0) ** 0.25
+LAM_MIN = (sys.float_info.min / 4.0) ** 0.25
+
+
 def lam_or_winkler(model):
-    """Exactly one of ``lam`` and ``winkler`` (= 4 lam^4)."""
+    """Exactly one of ``lam`` and ``winkler`` (= 4 lam^4), such that both are finite and
+    positive (a ``lam`` beyond :data:`LAM_MAX` would make ``winkler`` infinite)."""
     has_lam, has_winkler = model.has("lam"), model.has("winkler")
     if has_lam == has_winkler:
         both = "both are given" if has_lam else "neither is given"
         raise SceneError(model.source, "model.lam", f"give exactly one of model.lam and model.winkler ({both})")
     if has_lam:
-        return model.number("lam", minimum=0)
-    return float(lam_from_winkler(model.number("winkler", minimum=0)))
+        lam = model.number("lam", minimum=0)
+        if not LAM_MIN <= lam <= LAM_MAX:
+            model._fail("lam", model.data["lam"], f"must be in [{LAM_MIN:.2g}, {LAM_MAX:.2g}], so that winkler ="
+                        " 4 lam^4 is a finite positive number")
+        return lam
+    winkler = model.number("winkler", minimum=0)
+    if winkler < sys.float_info.min:
+        model._fail("winkler", model.data["winkler"], f"must be a positive number >= {sys.float_info.min:.2g}")
+    return float(lam_from_winkler(winkler))
 
 
 def parse(source, data, text):

@@ -198,6 +198,12 @@ class PlateKind(EvolutionKind):
     def parse(self, source, data, text):
         return plate_scene.parse(source, data, text)
 
+    def estimate(self, scene):
+        """Memory of the run (:func:`thinfilm.plate.resources.estimate`)."""
+        from thinfilm.plate.resources import estimate
+
+        return estimate(scene)
+
     def setup(self, scene):
         grid = build_grid(scene.domain)
         model = make_model(scene, grid)
@@ -307,6 +313,19 @@ class PlateKind(EvolutionKind):
         from thinfilm.plate.plots import toughness_figure
 
         return [toughness_figure(results, outdir)]
+
+    def check_compare(self, scene):
+        """Refuse to compare a scene whose load the exact 1D evolution does not solve: it is a
+        film under pure bending (:mod:`thinfilm.plate.compare`).
+
+        Raises
+        ------
+        SceneError
+            Naming ``load.kind`` if it is not ``"bending"``.
+        """
+        if scene.load.kind != "bending":
+            raise SceneError(scene.source, "load.kind", f'= "{scene.load.kind}": compare draws the run against the'
+                             ' exact 1D evolution of a film under pure bending; it needs load.kind = "bending"')
 
     def compare(self, results, outdir):
         """Draw the run against the exact 1D evolution of the same film

@@ -14,6 +14,8 @@ non-dimensional groups by :mod:`thinfilm.plate.units`); ``[domain]`` (``x``, ``y
 from __future__ import annotations
 
 import math
+import sys
+import zipfile
 from dataclasses import dataclass
 
 import numpy as np
@@ -185,6 +187,13 @@ def parse(source, data, text):
         both = "both are given" if model.has("eta") else "neither is given"
         raise SceneError(source, "model.eta", f"give exactly one of model.eta and model.eta_dx ({both})")
     eta = model.number("eta", minimum=0) if model.has("eta") else model.number("eta_dx", minimum=0) * dom.dx
+    size = max(x[1] - x[0], (y[1] - y[0]) if y else 0.0)
+    if not 0.0 < eta <= size:
+        # (a damage band wider than the film; also the default toughness_noise_length)
+        if model.has("eta"):
+            model._fail("eta", model.data["eta"], f"must be a positive length up to the domain's size {size:g}")
+        model._fail("eta_dx", model.data["eta_dx"], f"gives eta = eta_dx * dx = {eta:g} (dx = {dom.dx:g}); must give"
+                    f" a positive length up to the domain's size {size:g}")
     k_res = model.number("k_res", minimum=0, default=1e-6)
     if material:
         lam, toughness = float(lam_from_winkler(material.winkler)), material.toughness
@@ -195,7 +204,6 @@ def parse(source, data, text):
         model._fail("toughness_noise", noise, "must be in [0, 2] (the scatter of log G; 2 already puts a factor"
                     " 2500 between the 2.5% and 97.5% quantiles of G)")
     noise_length = model.number("toughness_noise_length", minimum=0, exclusive=False, default=eta)
-    size = max(x[1] - x[0], (y[1] - y[0]) if y else 0.0)
     if noise_length > size:
         # (longer correlations make a field that is nearly uniform over the film, and a
         # smoothing kernel larger than the grid)
@@ -261,12 +269,35 @@ def _parse_material(source, data, model):
     if table.has("Gc") == table.has("K_IC"):
         both = "both are given" if table.has("Gc") else "neither is given"
         raise SceneError(source, "material.Gc", f"give exactly one of material.Gc and material.K_IC ({both})")
-    Gc = table.number("Gc", minimum=0) if table.has("Gc") else toughness_from_KIC(table.number("K_IC", minimum=0), E)
+    if table.has("Gc"):
+        Gc = table.number("Gc", minimum=0)
+    else:
+        K_IC = table.number("K_IC", minimum=0)
+        Gc = _derived(lambda: toughness_from_KIC(K_IC, E))
+        if not 0.0 < Gc < math.inf:
+            table._fail("K_IC", table.data["K_IC"], f"gives Gc = K_IC^2 / E = {Gc:g} with E = {E:g}; must give a"
+                        " finite positive Gc")
     nu = table.number("nu", default=0.3)
     if not -1.0 < nu < 0.5:
         table._fail("nu", nu, "must be in (-1, 0.5)")
-    return Material(E=E, nu=nu, h=table.number("h", minimum=0), Gc=Gc,
-                    bond_stiffness=table.number("bond_stiffness", minimum=0), L=table.number("L", minimum=0))
+    material = Material(E=E, nu=nu, h=table.number("h", minimum=0), Gc=Gc,
+                        bond_stiffness=table.number("bond_stiffness", minimum=0), L=table.number("L", minimum=0))
+    # (2.13): winkler = 12 K_b (1 - nu^2) L^4 / (E h^3), toughness = 12 Gc (1 - nu^2) L / (E h^2)
+    for name, keys in (("winkler", ("E", "h", "bond_stiffness", "L")), ("toughness", ("E", "h", "Gc", "L"))):
+        value = _derived(lambda: getattr(material, name))
+        if not sys.float_info.min <= value < math.inf:
+            given = ", ".join(f"{k} = {getattr(material, k):g}" for k in keys)
+            raise SceneError(source, "material", f"{given}: (2.13) gives {name} = {value:g}; they must give a finite"
+                             f" positive {name}")
+    return material
+
+
+def _derived(compute):
+    """A derived parameter, ``inf`` where Python's float arithmetic overflows."""
+    try:
+        return float(compute())
+    except OverflowError:
+        return math.inf
 
 
 _LOAD_KINDS = ("bending", "cantilever", "indenter", "field")
@@ -301,23 +332,35 @@ def _read_field(load, dom):
         load._fail("name", name, "must be a string (the array's name in the file)")
     path = load.file("file", "must be the path of an .npz or HDF5 file")
     raw = load.data["file"]
+    if path.suffix not in (".npz", ".h5", ".hdf5"):
+        load._fail("file", raw, "must end in .npz, .h5 or .hdf5")
+    if not path.is_file():
+        load._fail("file", raw, f"no such file ({path})")
+    if path.suffix == ".npz" and not zipfile.is_zipfile(path):
+        load._fail("file", raw, "cannot be read: not an .npz archive (numpy.savez writes them)")
+    # What cannot be read is the file's fault, an array it does not hold the name's: the two
+    # are told apart outside the try, so that one message never wraps the other.
+    missing = None
     try:
         if path.suffix == ".npz":
             with np.load(path) as archive:
-                if name not in archive:
-                    load._fail("name", name, f"no array of that name in {raw} (it has: {', '.join(archive.files)})")
-                w = np.asarray(archive[name], dtype=float)
-        elif path.suffix in (".h5", ".hdf5"):
+                if name in archive:
+                    w = np.asarray(archive[name], dtype=float)
+                else:
+                    missing = f"no array of that name in {raw} (it has: {', '.join(archive.files) or 'none'})"
+        else:
             import h5py
 
             with h5py.File(path, "r") as f:
-                if name not in f:
-                    load._fail("name", name, f"no dataset of that name in {raw}")
-                w = np.asarray(f[name][()], dtype=float)
-        else:
-            load._fail("file", raw, "must end in .npz, .h5 or .hdf5")
-    except (OSError, ValueError) as err:
-        load._fail("file", raw, f"cannot be read ({err.__class__.__name__}: {err})".replace("\n", " "))
+                if name in f and isinstance(f[name], h5py.Dataset):
+                    w = np.asarray(f[name][()], dtype=float)
+                else:
+                    missing = f"no dataset of that name in {raw} (it has: {', '.join(f) or 'none'})"
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as err:
+        load._fail("file", raw, f"cannot be read as {'an .npz' if path.suffix == '.npz' else 'an HDF5'} file"
+                   f" ({err.__class__.__name__}: {err})".replace("\n", " "))
+    if missing is not None:
+        load._fail("name", name, missing)
     shape = tuple(c + 1 for c in reversed(dom.cells))  # (ny + 1, nx + 1) or (nx + 1,)
     n_nodes = int(np.prod(shape))
     if w.shape not in (shape, (n_nodes,)):

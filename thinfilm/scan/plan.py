@@ -164,7 +164,7 @@ def _value_list(source, key, values):
     return values
 
 
-def parse_plan(text, source="<string>", overrides=None):
+def parse_plan(text, source="<string>", overrides=None, check=None):
     """Validate scan text and build its runs.
 
     Parameters
@@ -176,6 +176,9 @@ def parse_plan(text, source="<string>", overrides=None):
     overrides : dict, optional
         Dotted scene keys set in every run on top of ``[set]`` (``thinfilm scan --set``); a
         varied key is refused.
+    check : callable, optional
+        Called with every run's validated scene; may refuse it with a SceneError (the
+        command line checks that each run fits the machine: :func:`thinfilm.resources.check`).
 
     Returns
     -------
@@ -187,14 +190,14 @@ def parse_plan(text, source="<string>", overrides=None):
         On any problem in the scan file or in any generated scene, in one line.
     """
     try:
-        return _parse(text, source, dict(overrides or {}))
+        return _parse(text, source, dict(overrides or {}), check)
     except ScanError:
         raise
     except SceneError as err:  # from the table getters: the same line, as a scan's error
         raise ScanError(err.source, err.key, err.detail) from None
 
 
-def _parse(text, source, overrides):
+def _parse(text, source, overrides, check=None):
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
@@ -261,6 +264,8 @@ def _parse(text, source, overrides):
     for spec in runs:
         try:
             scene = load_scene(base, overrides=spec.overrides)
+            if check is not None:
+                check(scene)
         except SceneError as err:
             label = ", ".join(f"{k} = {show(v)}" for k, v in spec.values.items())
             raise ScanError(source, None, f"run {spec.index} ({label}): {err}") from None
@@ -270,8 +275,9 @@ def _parse(text, source, overrides):
                     keys=keys + ((seed_key,) if seed_key else ()), seed=seed_key, metrics=tuple(metrics), runs=tuple(runs))
 
 
-def load_plan(path, overrides=None):
-    """Read and validate a scan file (:func:`parse_plan`), with ``overrides`` set in every run.
+def load_plan(path, overrides=None, check=None):
+    """Read and validate a scan file (:func:`parse_plan`), with ``overrides`` set in every run
+    and ``check`` called with each run's scene.
 
     Raises
     ------
@@ -279,4 +285,4 @@ def load_plan(path, overrides=None):
         If the file cannot be read or the scan is not valid.
     """
     text = read_text(path, "scan file", ScanError)
-    return parse_plan(text, source=str(path), overrides=overrides)
+    return parse_plan(text, source=str(path), overrides=overrides, check=check)

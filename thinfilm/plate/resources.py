@@ -1,0 +1,117 @@
+"""The memory a thin-film run needs, from its scene alone (:mod:`thinfilm.resources`).
+
+With ``N`` nodes, ``n`` unknowns of the u-problem (``N`` divided by the order of the
+symmetry group) and ``S + 1`` load steps::
+
+    memory = BASE_BYTES + N NODE_BYTES[dim, solver] + n factor_bytes(dim, n)   (direct solver only)
+           + (S + 1) (16 N + STEP_BYTES)
+
+* ``NODE_BYTES``: the peak, per node, of the model (grid, load, the plate matrix of 5 (1D) or
+  13 (2D) entries per row, the damage operator's three matrices of 3 or 5, the solver's copy
+  of the pattern and upper triangle) and of the engine's working fields during alternate
+  minimization; with AMG, its hierarchy (3 near-nullspace vectors, rebuilt now and then).
+  Measured with ``tracemalloc`` over whole runs (setup, evolution, figures):
+
+  ================  ===========  ==========================================================
+  grid, solver      bytes/node   measured
+  ================  ===========  ==========================================================
+  1D, direct        530          529 (4001 nodes, the evolution's peak); 433 (model build)
+  2D, direct        830          823-825 (101^2 to 801^2 nodes, the model build's peak)
+  1D, AMG           1450         1452 (4001 nodes)
+  2D, AMG           4100         2824 (301^2 nodes, no damage), 4099 (201^2, with cracks;
+                                 3800 of resident memory at 321^2)
+  ================  ===========  ==========================================================
+
+* ``factor_bytes``: PARDISO's own memory (its ``iparm(16) + iparm(17)``: permanent memory and
+  factors), outside Python's heap: 370 B per unknown in 1D (367-382 from 1e4 to 1e6
+  unknowns); ``100 log2(n) - 112`` B per unknown in 2D, nested dissection's ``n log n`` fill
+  (1206, 1389, 1576 and 1817 B measured at 101^2, 201^2, 401^2 and 801^2 nodes; the formula
+  gives 1220, 1419, 1619 and 1817).
+* ``16 N`` per step: ``u`` and ``alpha`` of every finished step, which the engine keeps until
+  the evolution ends (backtracking may return to any of them); ``STEP_BYTES``
+  (:mod:`thinfilm.resources`): the step's records and its share of the figures.
+
+The whole is checked against measured runs in ``docs/scenes.md#sizes`` and
+``tests/core/test_refusals.py``. A run's time depends on its iterations, which the scene does
+not tell, so only its memory is estimated.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+
+from thinfilm.plate.symmetry import GROUPS
+from thinfilm.resources import BASE_BYTES, STEP_BYTES, Estimate, Size, count, size
+from thinfilm.solvers.linear import AUTO_AMG_MIN_UNKNOWNS, AUTO_AMG_MIN_UNKNOWNS_SUPERLU
+
+__all__ = ["NODE_BYTES", "FIELD_BYTES", "factor_bytes", "solver_kind", "memory", "estimate"]
+
+#: Peak bytes per node of the model, its solver's arrays and the engine's working fields.
+NODE_BYTES = {(1, "direct"): 530.0, (2, "direct"): 830.0, (1, "amg"): 1450.0, (2, "amg"): 4100.0}
+#: Bytes per node per step of the fields the engine keeps (``u`` and ``alpha``, float64).
+FIELD_BYTES = 16.0
+
+
+def factor_bytes(dim, n):
+    """Bytes per unknown of PARDISO's factorization of the u-problem with ``n`` unknowns."""
+    if dim == 1:
+        return 370.0
+    return max(100.0 * math.log2(max(n, 2)) - 112.0, 370.0)
+
+
+def solver_kind(linear, unknowns):
+    """``"direct"`` or ``"amg"``: the scene's ``linear``, with ``"auto"`` chosen as
+    :func:`thinfilm.solvers.linear.make_solver` chooses it."""
+    if linear != "auto":
+        return linear
+    pardiso = importlib.util.find_spec("pypardiso") is not None
+    return "amg" if unknowns >= (AUTO_AMG_MIN_UNKNOWNS if pardiso else AUTO_AMG_MIN_UNKNOWNS_SUPERLU) else "direct"
+
+
+def memory(cells, steps, linear="auto", symmetry="none"):
+    """Bytes a run needs, and how they were reckoned.
+
+    Parameters
+    ----------
+    cells : tuple of int
+        ``(nx,)`` or ``(nx, ny)``.
+    steps : int
+    linear : {"auto", "direct", "amg"}
+    symmetry : str
+        A group of :data:`thinfilm.plate.symmetry.GROUPS` (the u-problem's unknowns are the
+        nodes' orbits under it).
+
+    Returns
+    -------
+    bytes : float
+    detail : str
+    model, steps : float
+        The bytes of the model and its solver, and of the steps.
+    """
+    dim = len(cells)
+    nodes = math.prod(c + 1 for c in cells)
+    unknowns = max(nodes // 2 ** len(GROUPS[symmetry]), 1)
+    kind = solver_kind(linear, unknowns)
+    per_node = NODE_BYTES[dim, kind] + (unknowns / nodes * factor_bytes(dim, unknowns) if kind == "direct" else 0.0)
+    per_step = FIELD_BYTES * nodes + STEP_BYTES
+    model, fields = nodes * per_node, (steps + 1) * per_step
+    detail = (f"{count(nodes)} nodes x {size(per_node)} for the model and its {kind} solver, and"
+              f" {count(steps + 1)} steps x {size(per_step)} for their fields and records")
+    return BASE_BYTES + model + fields, detail, model, fields
+
+
+def estimate(scene):
+    """The :class:`thinfilm.resources.Estimate` of a plate scene: its memory, blamed on
+    ``domain.cells`` if the grid alone (with the fewest steps) cannot fit, else on whichever of
+    the model and the steps' fields and records needs more."""
+    dom, load = scene.domain, scene.load
+    linear, symmetry = scene.solver.linear, dom.symmetry
+    total, detail, model, fields = memory(dom.cells, load.steps, linear, symmetry)
+    least_cells = tuple(2 for _ in dom.cells)
+    cells_value = dom.cells[0] if dom.dim == 1 else list(dom.cells)
+    sizes = (Size("domain.cells", cells_value, memory(dom.cells, 2, linear, symmetry)[0], model,
+                  remedy="use fewer cells"),
+             Size("load.steps", load.steps, memory(least_cells, load.steps, linear)[0], fields,
+                  remedy="use fewer steps"))
+    return Estimate(total, detail, sizes)
