@@ -72,18 +72,22 @@ def test_set_from_the_command_line_joins_every_run_and_names_it(tmp_path, capsys
     assert "model.toughness = -1.0" in lines[0] and "must be KEY=VALUE" in lines[1] and not out.exists()
 
 
-def test_run_names_hash_the_base_text_and_the_overrides():
+def test_run_names_hash_the_parsed_base_and_the_overrides():
     overrides = {"model.lam": 4.0, "load.steps": 10}
-    blob = json.dumps({"base": "text", "overrides": overrides}, sort_keys=True, separators=(",", ":"))
-    assert run_name("text", overrides) == hashlib.sha256(blob.encode()).hexdigest()[:12]
-    assert run_name("text", dict(reversed(overrides.items()))) == run_name("text", overrides)
-    assert run_name("text 2", overrides) != run_name("text", overrides)
-    assert run_name("text", {**overrides, "model.lam": 4.5}) != run_name("text", overrides)
+    text = "[model]\nlam = 3.0 # the decay\n"
+    blob = json.dumps({"base": {"model": {"lam": 3.0}}, "overrides": overrides}, sort_keys=True, separators=(",", ":"))
+    assert run_name(text, overrides) == hashlib.sha256(blob.encode()).hexdigest()[:12]
+    assert run_name(text, dict(reversed(overrides.items()))) == run_name(text, overrides)
+    # comments and layout do not rename a run; a value does
+    assert run_name("# a comment\n[model]\n  lam   = 3.0\n", overrides) == run_name(text, overrides)
+    assert run_name("[model]\nlam = 3.5\n", overrides) != run_name(text, overrides)
+    assert run_name(text, {**overrides, "model.lam": 4.5}) != run_name(text, overrides)
     # the same in another interpreter, whatever its hash seed
-    code = "from thinfilm.scan.plan import run_name; print(run_name('text', {'model.lam': 4.0, 'load.steps': 10}))"
+    code = ("from thinfilm.scan.plan import run_name; "
+            "print(run_name('[model]\\nlam = 3.0 # the decay\\n', {'model.lam': 4.0, 'load.steps': 10}))")
     other = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT,
                            env={"PYTHONHASHSEED": "12345", "PATH": ""}).stdout.strip()
-    assert other == run_name("text", overrides)
+    assert other == run_name(text, overrides)
 
 
 @pytest.mark.parametrize("body, key, phrase", [

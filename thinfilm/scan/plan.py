@@ -21,7 +21,7 @@ the ``[set]`` keys, one value of each varied key, and the seed. :func:`load_plan
 run's scene and validates it before anything runs, so a bad key or value anywhere stops the
 scan with one line naming the scan file, the run and the key (:class:`ScanError`).
 
-A run is named by a stable hash of what it computes (the base scene's text and the run's
+A run is named by a stable hash of what it computes (the base scene as parsed and the run's
 overrides, :func:`run_name`): its directory keeps that name from one scan to the next, which is
 how a resumed scan finds its finished runs, and a changed base scene never reuses stale ones.
 """
@@ -82,7 +82,7 @@ class RunSpec:
     Attributes
     ----------
     name : str
-        Stable hash of the base scene's text and the overrides: the run's directory name.
+        Stable hash of the base scene as parsed and the overrides: the run's directory name.
     index : int
         Position in the scan (0-based), the row order of the table.
     values : dict
@@ -132,9 +132,12 @@ class ScanPlan:
 
 
 def run_name(base_text, overrides):
-    """The stable name of a run: 12 hex digits of the SHA-256 of the base scene's text and the
-    overrides as canonical JSON (sorted keys), the same on every machine and Python."""
-    blob = json.dumps({"base": base_text, "overrides": overrides}, sort_keys=True, separators=(",", ":"))
+    """The stable name of a run: 12 hex digits of the SHA-256 of the base scene as parsed and the
+    overrides, as canonical JSON (sorted keys), the same on every machine and Python. The parsed
+    scene, not its text: a comment or the layout of the base file does not rename its runs
+    (``thinfilm run --resume`` compares scenes the same way)."""
+    base = tomllib.loads(base_text)
+    blob = json.dumps({"base": base, "overrides": overrides}, sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(blob.encode("utf-8")).hexdigest()[:12]
 
 
