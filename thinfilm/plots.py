@@ -9,7 +9,8 @@ got; :mod:`thinfilm.results.reader`), for every kind (:func:`plot_run`):
   loads (nearest finished steps), one shared colour scale per figure: [0, 1] for alpha,
   symmetric about 0 for u. Fields on a 2D grid as images with the domain's aspect ratio, on a
   2D mesh as coloured triangles, 1D fields as curves (a vector field, or a 3D mesh, is left
-  to the kind's own figures);
+  to the kind's own figures); the panels share their axes, and the kind may draw on each
+  (:meth:`thinfilm.run.EvolutionKind.overlay`: the film's contact circle under the indenter);
 * ``iterations.png``: alternate-minimization iterations and u-solves of each step;
 * ``alpha.gif`` (on request): the damage over the load, at most ~100 frames;
 
@@ -147,7 +148,7 @@ def _panel_layout(count, aspect):
 #: first row's panel titles; x label and ticks. Gaps between panels: (hidden) tick labels
 #: across, a panel title down.
 _MARGIN_L, _MARGIN_R, _MARGIN_T, _MARGIN_B = 0.95, 1.25, 0.7, 0.55
-_GAP_W, _GAP_H = 0.2, 0.4
+_GAP_W, _GAP_H = 0.3, 0.4
 
 
 def _draw_field(ax, d, values, vmin, vmax, cmap):
@@ -169,33 +170,35 @@ def _draw_field(ax, d, values, vmin, vmax, cmap):
     return image
 
 
-def _draw_images(res, steps, field, values, path, title):
-    """Images of ``values`` (shape (k, ny+1, nx+1)) at ``steps``, one colour scale and bar.
+def _image_figure(res, steps, field, values, title):
+    """The figure of images of ``values`` (shape (k, ny+1, nx+1)) at ``steps``, one colour
+    scale and bar, and the kind's overlays (:meth:`thinfilm.run.EvolutionKind.overlay`).
 
     The panels are placed explicitly, each exactly of the domain's aspect ratio, instead of
     by constrained layout: the same figure, at a fraction of the drawing time (a layout
-    engine draws every panel's text several times).
+    engine draws every panel's text several times). They read as shared axes: the same ticks
+    on every panel, labelled only along the left column and under the bottom panel of each
+    column, and few enough of them that neighbouring labels never meet.
     """
     vmin, vmax, cmap = _colour_range(field, values)
     d = res.discretization
+    kind = kinds.get(res.kind)
     aspect = _aspect(d)
     nrows, ncols, w, h = _panel_layout(len(steps), aspect)
     h_box = max(h, 0.3)  # a very thin strip still gets room for its y ticks (image centred)
     W = _MARGIN_L + ncols * w + (ncols - 1) * _GAP_W + _MARGIN_R
     H = _MARGIN_T + nrows * h_box + (nrows - 1) * _GAP_H + _MARGIN_B
     fig = plt.figure(figsize=(W, H))
-    image = None
+    image, handles, first = None, [], None
     for i, k in enumerate(steps):
         row, col = divmod(i, ncols)
         left = _MARGIN_L + col * (w + _GAP_W)
         bottom = _MARGIN_B + (nrows - 1 - row) * (h_box + _GAP_H)
-        ax = fig.add_axes((left / W, bottom / H, w / W, h_box / H))
+        ax = fig.add_axes((left / W, bottom / H, w / W, h_box / H), sharex=first, sharey=first)
+        first = first or ax
         image = _draw_field(ax, d, values[i], vmin, vmax, cmap)
-        ax.yaxis.set_major_locator(MaxNLocator(nbins=4 if h_box > 1.0 else 2))
-        # matplotlib's own tick choice; a panel with a neighbour on its right drops its last
-        # x label, which would run into the neighbour's first
-        ax.xaxis.set_major_locator(MaxNLocator(nbins="auto", steps=[1, 2, 2.5, 5, 10],
-                                               prune="upper" if col < ncols - 1 else None))
+        handles += [h for h in kind.overlay(res, ax, float(res.t[k])) if h.get_label() not in
+                    [g.get_label() for g in handles]]
         ax.set_title(f"t = {res.t[k]:.4g} (step {k})", fontsize=9, pad=3)
         bottom_of_column = i + ncols >= len(steps)
         ax.tick_params(labelbottom=bottom_of_column, labelleft=col == 0, labelsize=8)
@@ -203,12 +206,26 @@ def _draw_images(res, steps, field, values, path, title):
             ax.set_xlabel(_axis(res, "x"))
         if col == 0:
             ax.set_ylabel(_axis(res, "y"))
+    # Shared axes share their locators: at most one tick per ~0.75 in across (a label such as
+    # "-0.025" is ~0.4 in wide at this size), and the last one dropped where a neighbour's
+    # first label would stand beside it.
+    first.yaxis.set_major_locator(MaxNLocator(nbins=4 if h_box > 1.0 else 2))
+    first.xaxis.set_major_locator(MaxNLocator(nbins=max(2, int(w / 0.75)), steps=[1, 2, 2.5, 5, 10],
+                                              prune="upper" if ncols > 1 else None))
+    if handles:
+        fig.axes[0].legend(handles=handles, fontsize=7, loc="upper right", framealpha=0.8)
     # One colour bar beside the panels, at most 4 in tall, centred on them.
     top, bottom = H - _MARGIN_T, _MARGIN_B
     bar = min(top - bottom, 4.0)
     cax = fig.add_axes(((W - _MARGIN_R + 0.2) / W, (bottom + (top - bottom - bar) / 2) / H, 0.15 / W, bar / H))
     fig.colorbar(image, cax=cax, label=_label(res, field))
     fig.suptitle(title, fontsize=10, y=1.0 - 0.12 / H, va="top")
+    return fig
+
+
+def _draw_images(res, steps, field, values, path, title):
+    """Write :func:`_image_figure` to ``path``."""
+    fig = _image_figure(res, steps, field, values, title)
     fig.savefig(path, dpi=DPI)
     plt.close(fig)
 

@@ -214,6 +214,11 @@ class EvolutionKind:
         """The kind's figures of fields stored once (paths)."""
         return []
 
+    def overlay(self, results, ax, t) -> list:
+        """Draw on a 2D panel of the field at load ``t`` (the snapshot figures); returns the
+        artists to name in the figure's legend (none by default)."""
+        return []
+
     def title(self, parameters) -> str:
         """The model in a few words, for figure titles."""
         return self.name

@@ -309,6 +309,11 @@ class PlateKind(EvolutionKind):
             figures += [crack_metrics_figure(results, outdir), crack_pattern_figure(results, outdir)]
         return figures
 
+    def overlay(self, results, ax, t):
+        from thinfilm.plate.plots import contact_circle
+
+        return contact_circle(results, ax, t)
+
     def constant_figures(self, results, outdir):
         from thinfilm.plate.plots import toughness_figure
 

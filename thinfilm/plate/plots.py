@@ -9,6 +9,8 @@ gets (:mod:`thinfilm.plots`):
   marked (:func:`thinfilm.plots.force_displacement_figure`, as a solid's reaction is drawn);
   with a material, second axes in SI units;
 * ``cracks.png``: crack positions along y = 0 against t (local maxima of alpha > 0.9);
+* on the snapshot panels of a 2D indentation, the contact circle of each panel's load
+  (:func:`contact_circle`);
 * ``toughness.png``: the toughness field of an imperfect film (:mod:`thinfilm.plate.imperfection`);
 * ``crack_metrics.png`` (2D): crack length (from the energy, and of the skeleton), the counts
   of cracks, fragments and branch points against t, and under the indenter the ring radii
@@ -23,10 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
+from thinfilm.plate.loads import contact_radius
 from thinfilm.plate.results import crack_events
 from thinfilm.plots import DPI, force_displacement_figure, image_extent, line_figure, plt, progress_note
 
-__all__ = ["force_figure", "cracks_figure", "crack_metrics_figure", "crack_pattern_figure", "toughness_figure"]
+__all__ = ["force_figure", "cracks_figure", "contact_circle", "crack_metrics_figure", "crack_pattern_figure", "toughness_figure"]
 
 #: The words of each load's displacement and force (non-dimensional: lengths in L, energies in
 #: D, forces in D/L).
@@ -69,14 +72,37 @@ def force_figure(res, outdir):
                                      title=f"{what}: force against displacement", physical=physical)
 
 
+#: The contact circle on the snapshot figures: thin, dashed, seen on damage and deflection.
+CONTACT_STYLE = dict(ls="--", lw=0.8, color="tab:green")
+
+
+def contact_circle(res, ax, t):
+    """Under the indenter, draw the contact circle ``r = R sqrt(t (2 - t))`` about the origin
+    (:func:`thinfilm.plate.loads.contact_radius`) on a 2D panel of the film at load ``t``;
+    returns the line drawn (labelled "contact radius"), none for another load or before
+    contact (t = 0)."""
+    if res.parameters.get("load") != "indenter" or res.dim != 2:
+        return []
+    if not 0.0 < t < 2.0:  # the sphere touches the film's plane for 0 < t < 2
+        return []
+    r = float(contact_radius(float(res.parameters["radius"]), t))
+    angle = np.linspace(0.0, 2.0 * np.pi, 361)
+    (line,) = ax.plot(r * np.cos(angle), r * np.sin(angle), label="contact radius", **CONTACT_STYLE)
+    return [line]
+
+
 def cracks_figure(res, outdir):
     """``cracks.png``: crack positions along y = 0 against t (local maxima of alpha > 0.9)."""
     path = Path(outdir) / "cracks.png"
     fig, ax = line_figure(6.4, 4.2)
     for ti, cracks in zip(res.t, res.cracks()):  # one row per step: a large run is never read whole
         ax.plot(np.full(cracks.shape, ti), cracks, "|", color="tab:red", ms=6)
-    ax.set_xlim(0.0, max(res.t_max, res.t[-1]))
-    ax.set_ylim(res.x[0], res.x[-1])
+    # 2 % beyond the load range and the film on each side: a crack at the last step (or at an
+    # edge) is drawn whole, not cut in half by the axes
+    t_end = max(res.t_max, res.t[-1])
+    ax.set_xlim(-0.02 * t_end, 1.02 * t_end)
+    pad = 0.02 * (res.x[-1] - res.x[0])
+    ax.set_ylim(res.x[0] - pad, res.x[-1] + pad)
     ax.set_xlabel("load t")
     ax.set_ylabel("crack position x (L)" + (" on y = 0" if res.dim == 2 else ""))
     ax.set_title(f"cracks (local maxima of alpha > 0.9){progress_note(res)}", fontsize=10)
