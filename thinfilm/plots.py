@@ -24,6 +24,8 @@ Kinds that record a force against a prescribed displacement draw it with
 
 from __future__ import annotations
 
+import contextlib
+
 from pathlib import Path
 
 import matplotlib
@@ -527,9 +529,10 @@ def plot_run(results, outdir=None, loads=None, animate=False, xdmf=True, opener=
 
     Parameters
     ----------
-    results : str or Path
-        ``results.h5`` of the run (or its run directory); a run that stopped early is drawn
-        up to its last finished step.
+    results : str or Path or Results
+        ``results.h5`` of the run (or its run directory), or the run's reader already open (the
+        run path's, whose cached readings, such as a film's crack metrics, are then not
+        computed again); a run that stopped early is drawn up to its last finished step.
     outdir : str or Path, optional
         Where to write; defaults to the file's directory.
     loads : sequence of float, optional
@@ -553,7 +556,7 @@ def plot_run(results, outdir=None, loads=None, animate=False, xdmf=True, opener=
         ``iterations.png``, the kind's figures drawn once (the film's ``toughness.png``), then
         ``alpha.gif`` and ``results.xdmf`` if asked for.
     """
-    with opener(results) as res:
+    with (contextlib.nullcontext(results) if isinstance(results, Results) else opener(results)) as res:
         if res.n == 0:
             raise ResultsError(f"{res.path}: no finished step to plot")
         kind = kinds.get(res.kind)
@@ -576,10 +579,11 @@ def plot_run(results, outdir=None, loads=None, animate=False, xdmf=True, opener=
         paths = [p for p in paths if p is not None]
         if animate:
             paths.append(_animate(res, outdir))
+        path = res.path
     if xdmf:
         from thinfilm.xdmf import write_xdmf
 
-        paths.append(write_xdmf(results, outdir))
+        paths.append(write_xdmf(path, outdir))
     return paths
 
 

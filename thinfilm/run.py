@@ -298,7 +298,8 @@ class EvolutionKind:
             extra = self.summary(scene, res)
             summary = write_summary(outdir / "summary.json", scene, res, extra)
             report = self.report(scene, res, extra)
-        figures = self.plot(results, outdir)  # with the scene's snapshot loads, stored in the file
+            # the open reader: what the summary measured (a film's crack metrics) is drawn, not redone
+            figures = self.plot(res, outdir)  # with the scene's snapshot loads, stored in the file
         return {"results": results, "summary": summary, "figures": figures, "report": report,
                 "events": extra.get("events", [])}
 
