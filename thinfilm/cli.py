@@ -43,7 +43,7 @@ def _run_scene(scene, outdir, args, resume=False):
     try:
         with tqdm(total=scene.load.steps + 1, desc=Path(args.scene).stem, unit="step",
                   disable=True if args.quiet else None, file=sys.stderr) as bar:
-            out = run(scene, outdir, progress=bar.update, resume=resume)
+            out = run(scene, outdir, progress=bar.update, resume=resume, threads=args.threads)
     except ResumeError as err:
         raise SceneError(args.scene, None, str(err)) from None
     except RunInterrupted as err:
@@ -58,6 +58,16 @@ def _run_scene(scene, outdir, args, resume=False):
             print(line)
         print(f"wrote {out['results']}, {out['summary']}, " + ", ".join(str(p) for p in out["figures"]))
     return 0
+
+
+def _threads_argument(text):
+    """``--threads``: "auto" or a positive integer (:func:`thinfilm.threads.parse_threads`)."""
+    from thinfilm.threads import parse_threads
+
+    value = parse_threads(text)
+    if value is None:
+        raise argparse.ArgumentTypeError(f'{text!r}: must be "auto" or an integer >= 1')
+    return value
 
 
 def _overrides(args):
@@ -262,6 +272,9 @@ def build_parser():
     run.add_argument("--no-time-limit", action="store_true",
                      help="run a scene estimated to take longer than an hour (memory stays limited to what the"
                           " machine has)")
+    run.add_argument("--threads", metavar="N", type=_threads_argument,
+                     help='threads of MKL (PARDISO), OpenMP and Numba: "auto" (the cores other processes leave'
+                          ' idle, measured at each step) or a number; overrides [solver] threads')
     run.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
                      help="set a scene key for this run, the value in TOML (e.g. --set model.toughness=1.5"
                           " --set 'domain.cells=[200, 200]'); stored with the results, and needed again to"
@@ -274,6 +287,7 @@ def build_parser():
     cmp_.add_argument("--set", metavar="KEY=VALUE", action="append", default=[], dest="overrides",
                       help="set a scene key, as for run")
     cmp_.add_argument("--no-time-limit", action="store_true", help="as for run")
+    cmp_.add_argument("--threads", metavar="N", type=_threads_argument, help="as for run")
     cmp_.set_defaults(func=_compare)
     _add_inspect_commands(sub)
     scan = sub.add_parser("scan", help="run a parameter scan (a base scene, keys varied) on Dask and tabulate it",

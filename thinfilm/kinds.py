@@ -41,9 +41,11 @@ class ModelKind(Protocol):
         """Validate a scene's TOML tables (``data``); return the frozen scene or raise
         :class:`thinfilm.scene.SceneError`."""
 
-    def run(self, scene, outdir, progress, resume: bool) -> dict:
+    def run(self, scene, outdir, progress, resume: bool, threads=None) -> dict:
         """Compute and write ``results.h5``, ``summary.json`` and figures into ``outdir``;
-        return ``{"results", "summary", "figures", "report"}`` (``report``: lines to print)."""
+        return ``{"results", "summary", "figures", "report"}`` (``report``: lines to print).
+        ``threads`` (``"auto"``, an integer or None for the scene's) sets the numerical
+        libraries' threads (:mod:`thinfilm.threads`)."""
 
     def plot(self, results, outdir, loads=None, animate: bool = False) -> list:
         """Draw every figure of a results file of this kind; return their paths."""

@@ -59,6 +59,8 @@ class Rule:
         The allowed values of a choice (strings, or integers such as the direction +-1).
     phrase : str, optional
         The allowed values in words, when the bounds alone would say it badly.
+    words : tuple of str, optional
+        Strings allowed besides the numbers of an integer or number rule (e.g. ``"auto"``).
     """
 
     type: str
@@ -67,6 +69,7 @@ class Rule:
     exclusive: bool = False
     choices: tuple = ()
     phrase: str | None = None
+    words: tuple = ()
 
     def allowed(self):
         """The allowed values as a phrase, in the words of the scene errors."""
@@ -92,6 +95,8 @@ class Rule:
             return isinstance(value, bool)
         if isinstance(value, bool):
             return False
+        if isinstance(value, str) and self.words:
+            return True
         if self.type == "integer" or (self.type == "choice" and all(isinstance(c, int) for c in self.choices)):
             return isinstance(value, int)
         if self.type == "choice":
@@ -100,6 +105,8 @@ class Rule:
 
     def type_phrase(self):
         """The phrase for a value of the wrong type."""
+        if self.words:
+            return self.allowed()
         if self.type == "integer":
             return "must be an integer"
         if self.type == "number":
@@ -110,6 +117,8 @@ class Rule:
         """Whether ``value`` is allowed (type and range)."""
         if not self.accepts_type(value):
             return False
+        if isinstance(value, str) and self.words:
+            return value in self.words
         if self.type == "choice":
             return value in self.choices
         if self.type == "boolean":

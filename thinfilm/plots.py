@@ -96,9 +96,39 @@ def _label(res, field):
 
 def _axis(res, name):
     """``"x (L)"``: a coordinate axis in the kind's length unit (``"x"`` if it has none: the
-    scene's own units)."""
+    scene's own units), with the unit's SI value if the run has one (``"x (L = 1.88 µm)"``)."""
     unit = kinds.get(res.kind).length_unit
+    physical = kinds.get(res.kind).physical(res)
+    if unit and physical:
+        factor, prefix = si_prefix(physical["length"])
+        return f"{name} ({unit} = {physical['length'] * factor:.3g} {prefix}{physical['length_unit']})"
     return f"{name} ({unit})" if unit else name
+
+
+def si_prefix(value):
+    """``(factor, prefix)`` of the SI prefix that writes ``value`` between 1 and 1000
+    (``value * factor``), from the unit itself down to pico."""
+    for factor, prefix in ((1.0, ""), (1e3, "m"), (1e6, "µ"), (1e9, "n"), (1e12, "p")):
+        if abs(value) * factor >= 1.0:
+            return factor, prefix
+    return 1e12, "p"
+
+
+def secondary_si_axis(ax, which, scale, values, unit, what):
+    """A second axis (``which``: ``"right"`` or ``"top"``) reading the data of ``ax`` in SI:
+    ``scale`` SI units per data unit, the prefix chosen for the largest of ``values``; labelled
+    ``"<what> (<prefix><unit>)"``."""
+    finite = np.abs(np.asarray(values, dtype=float))
+    finite = finite[np.isfinite(finite)]
+    factor, prefix = si_prefix(float(finite.max()) * scale if finite.size and finite.max() > 0 else scale)
+    k = scale * factor
+    if which == "right":
+        axis = ax.secondary_yaxis("right", functions=(lambda v: v * k, lambda v: v / k))
+        axis.set_ylabel(f"{what} ({prefix}{unit})")
+    else:
+        axis = ax.secondary_xaxis("top", functions=(lambda v: v * k, lambda v: v / k))
+        axis.set_xlabel(f"{what} ({prefix}{unit})")
+    return axis
 
 
 def image_extent(grid):
@@ -364,7 +394,11 @@ def _energies(res, outdir):
     steps = res.steps
     t = res.t
     marker = "." if res.n <= 40 else None  # few steps: show where they are
+    physical = kinds.get(res.kind).physical(res)
     fig, ax = line_figure(6.4, 4.2)
+    if physical:
+        fig.subplots_adjust(right=1.0 - 0.95 / 6.4)  # room for the SI axis
+        secondary_si_axis(ax, "right", physical["energy"], steps["total"], physical["energy_unit"], "energy")
     ax.plot(t, steps["elastic"], color="tab:blue", marker=marker, label="elastic")
     ax.plot(t, steps["surface"], color="tab:red", marker=marker, label="surface")
     ax.plot(t, steps["total"], color="black", lw=2, marker=marker, label="total")

@@ -37,11 +37,12 @@ __all__ = ["ResumeError", "Continuation", "check_resume", "scene_keys", "scene_c
 EXTENSION_KEYS = ("load.t_max", "load.steps", "load.t")
 #: What a resumed run may change, for the messages.
 RULE = ("a resumed run may only extend the loads (load.t_max and load.steps in proportion, or more loads"
-        " after a load.t list) and change [output]")
+        " after a load.t list) and change [output] and solver.threads")
 #: Fields of the validated scenes left out of their comparison: where the scene came from,
-#: its loads (checked on the loads themselves) and what only the figures read.
+#: its loads (checked on the loads themselves), what only the figures read, and the threads
+#: (which never change a result: thinfilm.threads).
 _UNCOMPARED = {"text", "source", "overrides", "snapshots", "reference", "load.t_max", "load.steps",
-               "load.values"}
+               "load.values", "solver.threads"}
 _ABSENT = object()
 
 
@@ -236,7 +237,7 @@ def check_resume(path, attrs, scene):
     changes = scene_changes(old_keys, scene_keys(scene.text, scene.overrides))
     loads = [c for c in changes if c[0] in EXTENSION_KEYS]
     output = [c for c in changes if c[0].split(".")[0] == "output"]
-    others = [c for c in changes if c not in loads and c not in output]
+    others = [c for c in changes if c not in loads and c not in output and c[0] != "solver.threads"]
     if attrs.get("kind", scene.kind) != scene.kind:
         raise _refuse(path, describe(others) or f'model.kind ("{attrs.get("kind")}" -> "{scene.kind}")')
     try:

@@ -15,6 +15,7 @@ summary, figures and report lines of its own.
 
 from __future__ import annotations
 
+import json
 import logging
 import signal
 import threading
@@ -30,13 +31,14 @@ from thinfilm.results.info import seconds
 from thinfilm.results.reader import Results
 from thinfilm.results.writer import ResultsWriter, ResumeError, write_summary
 from thinfilm.steps import load_steps
+from thinfilm.threads import ThreadGovernor, threads_line, threads_summary
 
 __all__ = ["run", "Setup", "EvolutionKind", "RunInterrupted", "load_steps", "peak_force_line", "json_list"]
 
 log = logging.getLogger("thinfilm")
 
 
-def run(scene, outdir, progress=lambda n: None, resume=False):
+def run(scene, outdir, progress=lambda n: None, resume=False, threads=None):
     """Run a validated scene of any kind and write its results, summary and figures.
 
     Parameters
@@ -48,13 +50,16 @@ def run(scene, outdir, progress=lambda n: None, resume=False):
         Called with the number of newly finished steps.
     resume : bool
         Continue ``outdir/results.h5`` from its last finished step (kinds that can).
+    threads : "auto" or int, optional
+        Threads of the numerical libraries (:mod:`thinfilm.threads`), over the scene's
+        ``[solver] threads``; they never change a result.
 
     Returns
     -------
     dict
         ``results``, ``summary``, ``figures`` (paths) and ``report`` (lines for the user).
     """
-    return kinds.get(scene.kind).run(scene, Path(outdir), progress=progress, resume=resume)
+    return kinds.get(scene.kind).run(scene, Path(outdir), progress=progress, resume=resume, threads=threads)
 
 
 def peak_force_line(t, force, displacement=None):
@@ -223,8 +228,14 @@ class EvolutionKind:
         """The model in a few words, for figure titles."""
         return self.name
 
+    def physical(self, results) -> dict | None:
+        """The SI value of the run's units, if it has non-dimensional ones and a material
+        (:func:`thinfilm.plate.units.physical_scales`: ``length``, ``energy``, ``force`` and
+        their unit names); None by default (the scene's own units)."""
+        return None
+
     # -- what the hooks make ---------------------------------------------------------------------
-    def run(self, scene, outdir, progress=lambda n: None, resume=False):
+    def run(self, scene, outdir, progress=lambda n: None, resume=False, threads=None):
         """Run a scene and write ``results.h5``, ``summary.json`` and the figures.
 
         Every finished step is in ``results.h5`` (flushed) as soon as it is done, so a run
@@ -236,6 +247,11 @@ class EvolutionKind:
         stops at once); a solver failure (:class:`thinfilm.engine.evolution.EvolutionError`)
         propagates with the finished steps saved.
 
+        The numerical libraries' threads are set before the first step and, with ``"auto"``,
+        again after each step (:class:`thinfilm.threads.ThreadGovernor`); ``threads`` (the
+        command line's) overrides the scene's. Each step's count is stored in
+        ``/steps/threads``, the setting in the root attribute ``threads``.
+
         Returns
         -------
         dict
@@ -243,6 +259,8 @@ class EvolutionKind:
             (the kind's summary's events, if any).
         """
         outdir = Path(outdir)
+        # made first: with "auto" it measures the machine's load while the model is set up
+        governor = ThreadGovernor(threads if threads is not None else scene.solver.threads)
         setup = self.setup(scene)  # may refuse the scene (SceneError): nothing logged or written yet
         for line in setup.log:
             log.info(line)
@@ -254,8 +272,10 @@ class EvolutionKind:
         writer = None
         try:
             writer = ResultsWriter(results, scene, self.parameters(scene), setup.discretization,
-                                   components=setup.components, sizes=setup.sizes, observables=setup.observables,
+                                   components=setup.components, sizes=setup.sizes,
+                                   observables=setup.observables + ("threads",),
                                    constant=setup.constant, groups=setup.groups, resume=resume)
+            writer.write_attribute("threads", json.dumps(governor.record()))
             history = writer.history(all_alpha=scene.solver.backtrack.kind != "none") if resume else []
         except OSError as err:
             # HDF5 is not crash-proof: a process killed in the middle of writing a step can
@@ -281,10 +301,14 @@ class EvolutionKind:
                             f" {np.max(np.abs(stored - t_values[: stored.size])):.3g}; the run continues at"
                             " this version's loads")
             progress(len(history))
+        n_threads = governor.start()
+        log.info(f"threads: {n_threads} for MKL, OpenMP and Numba ({governor.describe()})")
         with _StopOnInterrupt() as stop:
             def on_step(record, state):
-                observed = setup.observe(state.u, state.alpha, state.t) if setup.observe else None
-                writer.write_step(record, state, observed)
+                nonlocal n_threads
+                observed = setup.observe(state.u, state.alpha, state.t) if setup.observe else {}
+                writer.write_step(record, state, {**observed, "threads": n_threads})
+                n_threads = governor.update()  # for the next step
                 if stop.requested:
                     raise KeyboardInterrupt
 
@@ -329,6 +353,9 @@ class EvolutionKind:
                  f" (most in one step: {int(steps['iterations'].max()) if n else 0})",
                  f"  backtracks    {int(total('backtracks'))}; trials (search, stability)"
                  f" {int(total('trials'))} ({int(total('trials_accepted'))} kept)"]
+        threads = threads_summary(f.attrs.get("threads"), steps.get("threads"))
+        if threads is not None:
+            lines.append("  " + threads_line(threads))
         if "force" in steps and n:
             force = peak_force_line(t, steps["force"], steps.get("displacement"))
             if force is not None:

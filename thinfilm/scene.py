@@ -197,10 +197,16 @@ class SolverSettings(EngineOptions):
         The engine's option groups (:class:`thinfilm.engine.options.EngineOptions`).
     linear : {"auto", "direct", "amg"}
         The linear solver of the u-problem (:func:`thinfilm.solvers.linear.make_solver`).
+    threads : "auto" or int
+        Threads of MKL, OpenMP and Numba (:mod:`thinfilm.threads`); never changes a result.
     """
 
     linear: str = option("auto", "u-problem solver: sparse direct, AMG-preconditioned CG, or chosen by size",
                          rule=Rule("choice", choices=LINEAR_KINDS))
+    threads: object = option("auto", "threads of MKL (PARDISO), OpenMP and Numba: the cores other processes leave"
+                             " idle, measured at each step, or a fixed number (docs/speed.md#threads); `--threads`"
+                             " overrides it", rule=Rule("integer", minimum=1, words=("auto",),
+                                                        phrase='must be "auto" or an integer >= 1'))
 
     def __post_init__(self):
         validate(self)

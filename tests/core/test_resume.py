@@ -264,7 +264,7 @@ def test_an_extended_run_continues_to_the_longer_run(reference, tmp_path, stoppe
     got_steps, got_alpha, got_u = _fields(out / "results.h5")
     assert got_steps.keys() == steps.keys() and len(got_steps["t"]) == 61
     for name in steps:
-        if not name.startswith("time_"):  # wall-clock timers
+        if not name.startswith("time_") and name != "threads":  # wall-clock timers, the machine's load
             np.testing.assert_array_equal(got_steps[name], steps[name], err_msg=name)
     np.testing.assert_array_equal(got_alpha, alpha)
     np.testing.assert_array_equal(got_u, u)
@@ -297,7 +297,7 @@ def test_an_extended_2d_run_is_the_longer_run(tmp_path):
     ref_steps, ref_alpha, ref_u = _fields(tmp_path / "long" / "results.h5")
     got_steps, got_alpha, got_u = _fields(tmp_path / "out" / "results.h5")
     for name in ref_steps:
-        if not name.startswith("time_"):
+        if not name.startswith("time_") and name != "threads":
             np.testing.assert_array_equal(got_steps[name], ref_steps[name], err_msg=name)
     np.testing.assert_array_equal(got_alpha, ref_alpha)
     np.testing.assert_array_equal(got_u, ref_u)
@@ -374,7 +374,7 @@ def test_two_runs_on_default_threads_agree_to_the_last_bit(tmp_path):
     (steps, alpha, u), (steps2, alpha2, u2) = runs
     assert steps["surface"][-1] > 0 and steps["iterations"].max() > 1  # cracks: damage solves matter
     for name in steps:
-        if not name.startswith("time_"):
+        if not name.startswith("time_") and name != "threads":  # "auto" may choose other counts
             np.testing.assert_array_equal(steps2[name], steps[name], err_msg=name)
     np.testing.assert_array_equal(alpha2, alpha)
     np.testing.assert_array_equal(u2, u)

@@ -21,7 +21,7 @@ def other_value(f):
     if rule.type == "choice":
         return next(c for c in rule.choices if c != default)
     if rule.type == "integer":
-        return default + 1
+        return int(rule.minimum or 0) + 1 if isinstance(default, str) else default + 1  # "auto" -> a number
     if rule.maximum is not None:
         return 0.5 * (default + (rule.minimum or 0.0)) if default > (rule.minimum or 0.0) else 0.5 * rule.maximum
     return 2.0 * default if default > 0 else 1e-3

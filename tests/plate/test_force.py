@@ -13,6 +13,9 @@ from thinfilm.cli import main
 from thinfilm.engine import Engine
 from thinfilm.plate.kind import KIND, build_grid, make_load, make_model
 from thinfilm.plate.model import crack_profile
+from thinfilm.plate.results import PlateResults
+from thinfilm.plots import _axis
+from thinfilm.scene import load_scene
 
 from tests.helpers import CASES, load_case
 
@@ -206,3 +209,21 @@ def test_a_run_writes_summarizes_reports_and_draws_the_force(tmp_path, capsys):
     info = capsys.readouterr().out
     assert f"peak force {steps['force'][k]:.6g} at t = {steps['t'][k]:.6g}" in info
     assert f"in SI units: {steps['force_si'][k]:.6g} N" in info
+    # energies and lengths in SI beside the non-dimensional ones: one unit of energy is the
+    # flexural rigidity D = E h^3 / (12 (1 - nu^2)), one of length L (docs/model.md#physical-units)
+    m = load_scene(CASES / "ito_indentation.toml").material
+    D_scene = m.E * m.h**3 / (12.0 * (1.0 - m.nu**2))
+    units = summary["units"]
+    assert units["energy"] == pytest.approx(D_scene, rel=1e-12) and units["length"] == m.L
+    assert units["force"] == pytest.approx(D_scene / m.L, rel=1e-12)
+    for name in ("elastic", "surface", "total"):
+        np.testing.assert_allclose(summary["steps"][f"{name}_si"], np.array(summary["steps"][name]) * D_scene,
+                                   rtol=1e-12)
+    np.testing.assert_allclose(summary["steps"]["crack_length_si"], np.array(summary["steps"]["crack_length"]) * m.L,
+                               rtol=1e-12)
+    for event in summary["events"]:
+        np.testing.assert_allclose(event["cracks_si"], np.array(event["cracks"]) * m.L, rtol=1e-12)
+    total = summary["steps"]["total"][-1] * D_scene
+    assert "energies at the last finished step in SI units:" in info and f"total {total:.6g} J" in info
+    with PlateResults(out / "results.h5") as res:  # the field figures' axes give L in SI
+        assert _axis(res, "x") == "x (L = 1.88 µm)"

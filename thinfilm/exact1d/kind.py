@@ -35,13 +35,18 @@ class Exact1DKind:
 
         return estimate(scene)
 
-    def run(self, scene, outdir, progress=lambda n: None, resume=False):
+    def run(self, scene, outdir, progress=lambda n: None, resume=False, threads=None):
         """Compute both tracks, write ``results.h5``, ``summary.json`` and the two figures.
 
         ``resume=True`` first checks the scene against the one ``outdir/results.h5`` was
         written from (:class:`thinfilm.resume.ResumeError` if it may not continue it; the
-        file is left as it was), then computes the whole evolution again.
+        file is left as it was), then computes the whole evolution again. The evolution is
+        serial: ``threads`` (:mod:`thinfilm.threads`) only sets the libraries once, at the
+        start (OpenBLAS to one thread).
         """
+        from thinfilm.threads import ThreadGovernor
+
+        ThreadGovernor(threads if threads is not None else 1).start()
         from thinfilm.exact1d.evolution import run_exact1d
         from thinfilm.exact1d.plots import plot_exact1d
         from thinfilm.exact1d.results import write_exact1d

@@ -242,11 +242,21 @@ class PlateKind(EvolutionKind):
     def warnings(self, scene):
         return resolution_warnings(scene)
 
+    def physical(self, results):
+        """With a ``[material]``: the SI value of L, of the energy unit D (D/L per metre of
+        width in 1D) and of the force unit (:func:`thinfilm.plate.units.physical_scales`)."""
+        from thinfilm.plate.units import run_scales
+
+        return run_scales(results)
+
     def summary(self, scene, results):
         """``"events"``: the steps where the number of cracks along y = 0 changes, with their
         positions; ``"steps"``: the force and displacement of each step (and in SI units, with a
         material; null where not recorded), on a 2D grid the crack length from the surface
-        energy at every step (``"crack_length"``) and ``"crack_metrics"`` at the measured steps."""
+        energy at every step (``"crack_length"``) and ``"crack_metrics"`` at the measured steps.
+        With a material, ``"units"`` (the SI value of each unit) and the energies, the crack
+        length and the crack positions in SI too (``elastic_si``, ... ``crack_length_si``,
+        each event's ``cracks_si``)."""
         events = crack_events(results.t, results.cracks())
         steps = {name: json_list(results.steps[name]) for name in ("force", "displacement", "force_si",
                                                                     "displacement_si") if name in results.steps}
@@ -261,6 +271,16 @@ class PlateKind(EvolutionKind):
                 "branch_radius": branch_radius(float(p["eta"]), min(results.discretization.spacing)),
                 "measured": [m.as_json() for m in results.crack_metrics()]}
             steps["crack_length"] = results.crack_length().tolist()
+        physical = self.physical(results)
+        if physical is not None:
+            # the same numbers in SI: energies, the crack length and the crack positions
+            out["units"] = physical
+            for name in ("elastic", "surface", "total"):
+                steps[f"{name}_si"] = json_list(results.steps[name] * physical["energy"])
+            if "crack_length" in steps:
+                steps["crack_length_si"] = json_list(np.asarray(steps["crack_length"]) * physical["length"])
+            for event in out["events"]:
+                event["cracks_si"] = [c * physical["length"] for c in event["cracks"]]
         return out
 
     def report(self, scene, results, summary):
@@ -287,6 +307,14 @@ class PlateKind(EvolutionKind):
             lines.insert(peak[0] + 1, f"  in SI units: {steps['force_si'][k]:.6g} {unit} at a displacement of"
                                       f" {steps['displacement_si'][k]:.6g} m")
         n = len(steps["t"])
+        if n and "material" in f:
+            from thinfilm.plate.units import physical_scales
+
+            scales = physical_scales(f["material"].attrs, int(f["grid"].attrs["dim"]))
+            e, unit = scales["energy"], scales["energy_unit"]
+            lines.append(f"energies at the last finished step in SI units: elastic {steps['elastic'][-1] * e:.6g},"
+                         f" surface {steps['surface'][-1] * e:.6g}, total {steps['total'][-1] * e:.6g} {unit}"
+                         f" (1 = D = {e:.6g} {unit}; lengths: 1 = L = {scales['length']:.6g} m)")
         if n and int(f["grid"].attrs["dim"]) == 2:
             from thinfilm.plate.cracks import crack_positions
             from thinfilm.plate.crack_metrics import measure_step

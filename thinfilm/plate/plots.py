@@ -7,7 +7,8 @@ gets (:mod:`thinfilm.plots`):
 * ``force_displacement.png`` (indenter and cantilever): the force conjugate to the imposed
   displacement (indentation depth, tip deflection) against it, the crack events along y = 0
   marked (:func:`thinfilm.plots.force_displacement_figure`, as a solid's reaction is drawn);
-  with a material, second axes in SI units;
+  with a material, second axes in SI units (as on ``crack_metrics.png`` and the shared
+  ``energy.png``; field figures give the SI value of L in their axis labels);
 * ``cracks.png``: crack positions along y = 0 against t (local maxima of alpha > 0.9);
 * on the snapshot panels of a 2D indentation, the contact circle of each panel's load
   (:func:`contact_circle`);
@@ -27,7 +28,9 @@ import numpy as np
 
 from thinfilm.plate.loads import contact_radius
 from thinfilm.plate.results import crack_events
-from thinfilm.plots import DPI, force_displacement_figure, image_extent, line_figure, plt, progress_note
+from thinfilm.plate.units import run_scales
+from thinfilm.plots import (DPI, force_displacement_figure, image_extent, line_figure, plt, progress_note,
+                            secondary_si_axis, si_prefix)
 
 __all__ = ["force_figure", "cracks_figure", "contact_circle", "crack_metrics_figure", "crack_pattern_figure", "toughness_figure"]
 
@@ -37,14 +40,6 @@ FORCE_WORDS = {
     "indenter": ("indentation depth d = R t (L)", "indenter force F = dE/dd (D/L)"),
     "cantilever": ("tip deflection $w_t(l_x) = 2 l_x^3 t$ (L)", "tip force F = dE/d$w_t(l_x)$ (D/L)"),
 }
-
-
-def _prefix(value):
-    """``(factor, prefix)`` of the SI prefix that writes ``value`` between 1 and 1000."""
-    for factor, prefix in ((1.0, ""), (1e3, "m"), (1e6, "µ"), (1e9, "n"), (1e12, "p")):
-        if abs(value) * factor >= 1.0:
-            return factor, prefix
-    return 1e12, "p"
 
 
 def force_figure(res, outdir):
@@ -58,14 +53,13 @@ def force_figure(res, outdir):
         ylabel = ylabel.replace("(D/L)", "(D/L per unit width)")
     events = [t for t, _ in crack_events(res.t, res.cracks())]
     physical = None
-    if "force_si" in res.steps and "material" in res.file:
-        material = res.file["material"].attrs
-        L, D = float(material["L"]), float(material["rigidity"])
-        unit = D / L if res.dim == 2 else D / L**2
-        d_factor, d_prefix = _prefix(np.nanmax(res.steps["displacement"]) * L)
-        f_factor, f_prefix = _prefix(np.nanmax(np.abs(res.steps["force"])) * unit)
+    scales = run_scales(res)
+    if "force_si" in res.steps and scales is not None:
+        L, unit = scales["length"], scales["force"]
+        d_factor, d_prefix = si_prefix(np.nanmax(res.steps["displacement"]) * L)
+        f_factor, f_prefix = si_prefix(np.nanmax(np.abs(res.steps["force"])) * unit)
         physical = (L * d_factor, f"displacement ({d_prefix}m)", unit * f_factor,
-                    f"force ({f_prefix}N{'' if res.dim == 2 else '/m'})")
+                    f"force ({f_prefix}{scales['force_unit']})")
     what = "indentation" if load == "indenter" else "cantilever"
     return force_displacement_figure(res, outdir, events=events, xlabel=xlabel, ylabel=ylabel,
                                      event_label="cracks along y = 0 change",
@@ -161,6 +155,10 @@ def crack_metrics_figure(res, outdir):
             label="skeleton of alpha >= 0.9")
     ax.set_ylabel("crack length (L)")
     ax.legend(fontsize=8)
+    physical = run_scales(res)
+    if physical:  # the lengths in SI on a second axis
+        fig.subplots_adjust(right=1.0 - 0.95 / 6.4)
+        secondary_si_axis(ax, "right", physical["length"], res.crack_length(), "m", "length")
     ax = axes[1]
     counts = [("cracks", [m.cracks for m in metrics]), ("fragments", [m.fragments for m in metrics]),
               ("intact fragments", [m.intact_fragments for m in metrics]),
@@ -182,6 +180,8 @@ def crack_metrics_figure(res, outdir):
         ax.plot(load, radius * np.sqrt(load * (2.0 - load)), color="black", lw=1.0, label="contact radius")
         ax.set_ylabel("radius (L)")
         ax.legend(fontsize=8)
+        if physical:
+            secondary_si_axis(ax, "right", physical["length"], [radius], "m", "radius")
     axes[-1].set_xlim(0.0, max(res.t_max, res.t[-1]))
     axes[-1].set_xlabel("load t")
     axes[0].set_title(f"crack metrics at {len(t)} step(s){progress_note(res)}", fontsize=10)

@@ -108,6 +108,37 @@ class Material:
                 "rigidity": self.rigidity}
 
 
+def physical_scales(material, dim):
+    """The SI value of one non-dimensional unit of length, energy and force, from a results
+    file's ``/material`` attributes (``L``, ``rigidity``).
+
+    Parameters
+    ----------
+    material : mapping
+        ``L`` (m) and ``rigidity`` ``D`` (N m).
+    dim : {1, 2}
+        The film's dimension: a 1D film's energies and forces are per metre of width.
+
+    Returns
+    -------
+    dict
+        ``length`` (m per L), ``energy`` (J, or J/m in 1D, per unit), ``force`` (N, or N/m),
+        and their unit names ``length_unit``, ``energy_unit``, ``force_unit``.
+    """
+    L, D = float(material["L"]), float(material["rigidity"])
+    energy = D if dim == 2 else D / L
+    return {"length": L, "energy": energy, "force": energy / L, "length_unit": "m",
+            "energy_unit": "J" if dim == 2 else "J/m", "force_unit": "N" if dim == 2 else "N/m"}
+
+
+def run_scales(results):
+    """:func:`physical_scales` of an open results file (``results.file``, ``results.dim``) whose
+    scene had a ``[material]``; None without one."""
+    if "material" not in results.file:
+        return None
+    return physical_scales(results.file["material"].attrs, results.dim)
+
+
 def toughness_from_KIC(K_IC, E):
     """``Gc = K_IC^2 / E`` (plane stress), J/m^2 from Pa sqrt(m) and Pa."""
     return K_IC**2 / E

@@ -7,14 +7,17 @@ driven by the engine, whatever its kind::
     /                  attrs: format = "thinfilm-results", format_version, kind, scene (the
                        TOML text), scene_source, scene_overrides (JSON, if any), thinfilm_version,
                        numpy_version, numba_version, h5py_version, created (UTC, ISO 8601);
-                       extended (JSON, if a resumed run extended the loads: thinfilm.resume)
+                       extended (JSON, if a resumed run extended the loads: thinfilm.resume);
+                       threads (JSON: the setting, the cores, OpenBLAS's and Numba's pool;
+                       thinfilm.threads)
     /parameters        attrs: the kind's parameters (t_max and steps always)
     /<group>           attrs only, one group per table of the kind's choosing (e.g. /material)
     /grid or /mesh     the discretization (thinfilm.discretization)
     /steps/<name>      (n,) one value per finished step: the StepRecord's t, elastic, surface,
                        total, iterations, u_solves, u_solves_skipped, backtracks, trials,
                        trials_accepted, time_u, time_alpha, time_total (seconds),
-                       lowest_curvature, saddles_left, u_rescalable; then the kind's observables
+                       lowest_curvature, saddles_left, u_rescalable; then the kind's observables,
+                       and threads (of MKL, OpenMP and Numba during the step; 0: not recorded)
     /fields/u          (n, n_nodes * components) displacement of each finished step
     /fields/alpha      (n, n_nodes) damage of each finished step
     /fields/<name>     a field stored once (e.g. the toughness of an imperfect film), with
@@ -40,6 +43,7 @@ import numpy as np
 from thinfilm import __version__
 from thinfilm.results.reader import FORMAT, FORMAT_VERSION, attrs_dict, finished_steps
 from thinfilm.resume import ResumeError, check_resume
+from thinfilm.threads import threads_summary
 
 __all__ = ["ResumeError", "ResultsWriter", "STEP_FIELDS", "INTEGER_STEP_FIELDS", "root_attributes",
            "write_json", "write_summary"]
@@ -50,7 +54,7 @@ STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_
                "lowest_curvature", "saddles_left", "u_rescalable")
 #: The integer ones among them.
 INTEGER_STEP_FIELDS = ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials", "trials_accepted",
-                       "saddles_left", "u_rescalable")
+                       "saddles_left", "u_rescalable", "threads")
 
 
 def root_attributes(scene):
@@ -225,6 +229,11 @@ class ResultsWriter:
             ds[k] = observed[name] if name in self.observables else getattr(record, name)
         f.flush()
 
+    def write_attribute(self, name, value):
+        """Set the root attribute ``name`` (a run's circumstances, such as its threads)."""
+        self.file.attrs[name] = value
+        self.file.flush()
+
     def trim(self):
         """Cut every per-step dataset to the finished steps (after a write was interrupted);
         returns their number."""
@@ -275,7 +284,7 @@ def write_summary(path, scene, results, extra=None):
     """``summary.json`` of a run driven by the engine.
 
     ``{"kind": ..., "scene": <scene file>, "parameters": {...}, <the kind's own entries>,
-    "steps": {"t": [...], "elastic": [...], "surface": [...], "total": [...], "iterations": [...]}}``
+    "threads": {...} (:func:`thinfilm.threads.threads_summary`), "steps": {"t": [...], "elastic": [...], "surface": [...], "total": [...], "iterations": [...]}}``
 
     Parameters
     ----------
@@ -291,5 +300,9 @@ def write_summary(path, scene, results, extra=None):
     extra = dict(extra or {})
     steps = {name: results.steps[name].tolist() for name in ("t", "elastic", "surface", "total", "iterations")}
     steps.update(extra.pop("steps", {}))
-    content = {"kind": scene.kind, "scene": scene.source, "parameters": results.parameters, **extra, "steps": steps}
+    content = {"kind": scene.kind, "scene": scene.source, "parameters": results.parameters, **extra}
+    threads = threads_summary(results.attrs.get("threads"), results.steps.get("threads"))
+    if threads is not None:
+        content["threads"] = threads
+    content["steps"] = steps
     return write_json(path, content)

@@ -135,8 +135,10 @@ def run_name(base_text, overrides):
     """The stable name of a run: 12 hex digits of the SHA-256 of the base scene as parsed and the
     overrides, as canonical JSON (sorted keys), the same on every machine and Python. The parsed
     scene, not its text: a comment or the layout of the base file does not rename its runs
-    (``thinfilm run --resume`` compares scenes the same way)."""
+    (``thinfilm run --resume`` compares scenes the same way). ``[solver] threads`` is left out:
+    a scan's local workers run on one thread each, and threads never change a result."""
     base = tomllib.loads(base_text)
+    base.get("solver", {}).pop("threads", None)
     blob = json.dumps({"base": base, "overrides": overrides}, sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(blob.encode("utf-8")).hexdigest()[:12]
 

@@ -117,14 +117,14 @@ def run_task(base, overrides, outdir, name):
             except (ResultsError, OSError) as err:  # cut in the middle of a write: start over
                 warnings.lines.append(f"could not resume ({' '.join(str(err).split())}); started over")
         try:
-            run(scene, outdir, resume=resume)
+            run(scene, outdir, resume=resume, threads=1)
         except (ResumeError, OSError) as err:
             if not resume:
                 raise
             # written by another scene or numpy, or cut in the middle of a write: start over
             warnings.lines.append(f"could not resume ({' '.join(str(err).split())}); started over")
             record["resumed_after_step"] = None
-            run(scene, outdir, resume=False)
+            run(scene, outdir, resume=False, threads=1)
     except Exception as err:  # the run's failure is the table's, not the scan's
         record["status"], record["error"] = "failed", _one_line(err)
     finally:

@@ -373,6 +373,13 @@ class _PardisoBackend:
     pypardiso's public ``factorize`` redoes the ordering and symbolic analysis (phase 12) on
     every call: 3.7 s of the 10.6 s at 1000^2 and 12 s of the 47 s at 1500^2. Calling its
     ``_call_pardiso`` with phase 11 once and phase 22 per update keeps the analysis.
+
+    The analysis holds for the number of MKL threads it was made with: a numeric
+    factorization after ``mkl_set_num_threads`` changed it returned wrong solutions (relative
+    residual 2e-2 on a 6759-unknown L-panel, analysis on two threads and factorization on
+    one), and so did every later one. The analysis is therefore redone, on the fresh handle,
+    whenever the thread count differs from the analysis's (:mod:`thinfilm.threads` changes it
+    between load steps).
     """
 
     name = "pardiso"
@@ -390,8 +397,16 @@ class _PardisoBackend:
         self.U = sp.csr_matrix(
             (np.ones(self.gather.size), upper.indices.astype(np.int32),
              upper.indptr.astype(np.int32)), shape=upper.shape)
-        # Symbolic analysis needs only the structure (SPD: no value-based matching).
-        self._phase(11, np.zeros(pattern.n))
+        self._max_threads = self.ps.libmkl.mkl_get_max_threads
+        self._max_threads.restype, self._max_threads.argtypes = ctypes.c_int, []
+        self._analyse()
+
+    def _analyse(self):
+        """Phase 11 on a fresh handle: ordering and symbolic analysis, which need only the
+        structure (SPD: no value-based matching), for the present number of MKL threads."""
+        self.ps.free_memory(everything=True)
+        self._threads = int(self._max_threads())
+        self._phase(11, np.zeros(self.U.shape[0]))
 
     def _phase(self, phase, b):
         self.ps.set_phase(phase)
@@ -402,10 +417,15 @@ class _PardisoBackend:
                                     kind="direct:pardiso") from exc
 
     def factor(self, K):
+        if int(self._max_threads()) != self._threads:
+            self._analyse()
         self.U.data[:] = K.data[self.gather]
         self._phase(22, np.zeros(self.U.shape[0]))
 
     def solve(self, b):
+        if int(self._max_threads()) != self._threads:  # changed since the factorization
+            self._analyse()
+            self._phase(22, np.zeros(self.U.shape[0]))  # U holds the last values
         return self._phase(33, np.ascontiguousarray(b))
 
     def close(self):
