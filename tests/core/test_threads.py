@@ -141,7 +141,8 @@ def test_the_command_line_sets_and_checks_threads(tmp_path):
     assert done.returncode == 2 and "--threads: 'two': must be \"auto\" or an integer >= 1" in done.stderr
     assert not out.exists()
     done = subprocess.run([sys.executable, "-m", "thinfilm", "run", str(CASES / "fig2_5.toml"), "--out", str(out),
-                           "--threads", "auto", "--set", "load.steps=4"], cwd=ROOT, capture_output=True, text=True)
+                           "--threads", "auto", "--set", "load.steps=2",
+                           "--set", "domain.cells=200"], cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert "threads: " in done.stderr and "for MKL, OpenMP and Numba (auto: " in done.stderr
     with h5py.File(out / "results.h5", "r") as f:
