@@ -152,3 +152,36 @@ def test_every_scan_case_and_its_base_scene_is_valid(path):
         assert len(plan.runs) >= 2 and plan.base.parent in (CASES, CASES / "scans")
     else:
         load_scene(path)                       # a base scene
+
+
+def test_a_zip_scan_is_drawn_as_one_series_in_the_file_order(tmp_path):
+    """Keys that vary together are one parameter: scan.png draws each metric against the run's
+    place in the scan file, one series without a legend (grouping by the other keys made one
+    legend entry per run, each as long as all its keys, covering the panels)."""
+    import matplotlib.pyplot as plt
+
+    from thinfilm.scan.table import draw
+
+    plan = {"base": "base.toml", "mode": "zip", "keys": ["geometry.width", "mesh.h"], "seed": None,
+            "metrics": ["peak_force"]}
+    rows = [{"run": f"r{k}", "geometry.width": w, "mesh.h": h, "peak_force": str(f), "status": status}
+            for k, (w, h, f, status) in enumerate([(0.5, 0.1, 3.0, "done"), (0.5, 0.2, 2.0, "done"),
+                                                   (0.3, 0.1, 5.0, "failed"), (0.3, 0.2, 1.0, "done")])]
+    drawn = []
+    original = plt.Figure.savefig
+
+    def keep(fig, *args, **kwargs):
+        drawn.append(fig)
+        return original(fig, *args, **kwargs)
+
+    plt.Figure.savefig = keep
+    try:
+        path = draw(tmp_path, plan, rows)
+    finally:
+        plt.Figure.savefig = original
+    assert path.exists()
+    ax = drawn[0].axes[0]
+    (line,) = ax.get_lines()
+    assert list(line.get_xdata()) == [1, 2, 4] and list(line.get_ydata()) == [3.0, 2.0, 1.0]
+    assert ax.get_legend() is None
+    assert "run, in the scan file's order" in drawn[0].axes[-1].get_xlabel()

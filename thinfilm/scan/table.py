@@ -156,7 +156,10 @@ def _number(value):
 def draw(outdir, plan, table_rows):
     """``scan.png``: one panel per metric against the first varied key (numbers only), one line
     per combination of the other varied keys; repeats (the seed key) are drawn as points with
-    their mean as the line."""
+    their mean as the line. A ``zip`` scan without a seed, whose keys vary together, is one
+    series: each metric against the run's place in the scan file (its values are in
+    ``scan.csv``), since no single key orders it and its other keys are not a second
+    dimension."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -169,6 +172,8 @@ def draw(outdir, plan, table_rows):
     others = [k for k in keys[1:] if k != seed]
     metrics = list(plan["metrics"])
     done = [r for r in table_rows if r["status"] == "done"]
+    if plan.get("mode") == "zip" and seed is None and len(keys) > 1:
+        return _draw_zip(outdir, plan, table_rows, done, metrics, plt)
     xs = [_number(r[x_key]) for r in done]
     numeric = all(x is not None for x in xs) and len(done) > 0
     fig, axes = plt.subplots(len(metrics), 1, figsize=(6.4, 0.4 + 2.4 * len(metrics)), squeeze=False)
@@ -200,6 +205,27 @@ def draw(outdir, plan, table_rows):
         if groups and len(groups) > 1:
             ax.legend(fontsize="small")
     axes[-1, 0].set_xlabel(x_key)
+    axes[0, 0].set_title(f"scan of {Path(plan['base']).name}" + (f" ({len(done)} of {len(table_rows)} runs done)"
+                                                                  if len(done) < len(table_rows) else ""))
+    fig.tight_layout()
+    path = Path(outdir) / FIGURE
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _draw_zip(outdir, plan, table_rows, done, metrics, plt):
+    """``scan.png`` of a zip scan: each metric against the run's place in the scan file."""
+    order = {r["run"]: k for k, r in enumerate(table_rows)}
+    fig, axes = plt.subplots(len(metrics), 1, figsize=(6.4, 0.4 + 2.4 * len(metrics)), squeeze=False)
+    x = np.array([order[r["run"]] + 1 for r in done])
+    for ax, metric in zip(axes[:, 0], metrics):
+        ax.plot(x, [float(r[metric]) for r in done], "o-", lw=0.8)
+        ax.set_xticks(range(1, len(table_rows) + 1))
+        ax.set_ylabel(metric.replace("_", " "))
+        ax.grid(alpha=0.3)
+    keys = ", ".join(k.split(".")[-1] for k in plan["keys"])
+    axes[-1, 0].set_xlabel(f"run, in the scan file's order (together: {keys}; values in {TABLE})", wrap=True)
     axes[0, 0].set_title(f"scan of {Path(plan['base']).name}" + (f" ({len(done)} of {len(table_rows)} runs done)"
                                                                   if len(done) < len(table_rows) else ""))
     fig.tight_layout()
