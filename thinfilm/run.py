@@ -301,14 +301,12 @@ class EvolutionKind:
                             f" {np.max(np.abs(stored - t_values[: stored.size])):.3g}; the run continues at"
                             " this version's loads")
             progress(len(history))
-        n_threads = governor.start()
-        log.info(f"threads: {n_threads} for MKL, OpenMP and Numba ({governor.describe()})")
+        log.info(f"threads: {governor.start()} for MKL, OpenMP and Numba ({governor.describe()})")
         with _StopOnInterrupt() as stop:
             def on_step(record, state):
-                nonlocal n_threads
                 observed = setup.observe(state.u, state.alpha, state.t) if setup.observe else {}
-                writer.write_step(record, state, {**observed, "threads": n_threads})
-                n_threads = governor.update()  # for the next step
+                writer.write_step(record, state, {**observed, "threads": governor.current})  # the step's
+                governor.update()  # for the next step
                 if stop.requested:
                     raise KeyboardInterrupt
 

@@ -165,8 +165,8 @@ class ThreadGovernor:
         The cores this process may use (:func:`usable_cores`).
     current : int
         The threads MKL, OpenMP and Numba have now (0 before :meth:`start`).
-    choices : list of ThreadChoice
-        Every choice made, the first one from :meth:`start`.
+    last : ThreadChoice or None
+        The last choice made (None before :meth:`start`).
     """
 
     def __init__(self, setting=AUTO):
@@ -177,7 +177,7 @@ class ThreadGovernor:
         #: The most "auto" gives: the cores, or fewer if the environment said so.
         self.cap = min(self.cores, ENVIRONMENT_CAP or self.cores)
         self.current = 0
-        self.choices = []
+        self.last = None
         self._idle = IdleCores() if self.setting == AUTO else None
 
     # -- the choice ------------------------------------------------------------------------------
@@ -204,7 +204,7 @@ class ThreadGovernor:
 
     # -- the libraries ---------------------------------------------------------------------------
     def _set(self, choice):
-        self.choices.append(choice)
+        self.last = choice
         if choice.threads != self.current:
             limit_threads(choice.threads)
             self.current = choice.threads
@@ -214,7 +214,7 @@ class ThreadGovernor:
         """The last choice in words, for the run log."""
         if self.setting != AUTO:
             return f"set to {self.setting}"
-        others = self.choices[-1].others if self.choices else None
+        others = self.last.others if self.last else None
         busy = "" if others is None else f", other processes keep {others:.1f} busy"
         cap = f", at most {self.cap} (MKL_NUM_THREADS/OMP_NUM_THREADS)" if self.cap < self.cores else ""
         return f"auto: {self.cores} core(s){busy}{cap}"

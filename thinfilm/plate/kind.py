@@ -245,9 +245,9 @@ class PlateKind(EvolutionKind):
     def physical(self, results):
         """With a ``[material]``: the SI value of L, of the energy unit D (D/L per metre of
         width in 1D) and of the force unit (:func:`thinfilm.plate.units.physical_scales`)."""
-        from thinfilm.plate.units import run_scales
+        from thinfilm.plate.units import file_scales
 
-        return run_scales(results)
+        return file_scales(results.file)
 
     def summary(self, scene, results):
         """``"events"``: the steps where the number of cracks along y = 0 changes, with their
@@ -296,25 +296,25 @@ class PlateKind(EvolutionKind):
         return lines
 
     def info(self, f, steps):
-        """The engine's lines; the peak force also in SI units if the scene had a material; on a
+        """The engine's lines; the peak force and the last energies also in SI units if the scene
+        had a material; on a
         2D grid the crack metrics of the last finished step with the count along the centre line
         beside them."""
-        lines = super().info(f, steps)
-        peak = [i for i, line in enumerate(lines) if line.startswith("peak force")]
-        if peak and "force_si" in steps:
-            k = int(np.nanargmax(steps["force"]))
-            unit = "N" if int(f["grid"].attrs["dim"]) == 2 else "N/m"
-            lines.insert(peak[0] + 1, f"  in SI units: {steps['force_si'][k]:.6g} {unit} at a displacement of"
-                                      f" {steps['displacement_si'][k]:.6g} m")
-        n = len(steps["t"])
-        if n and "material" in f:
-            from thinfilm.plate.units import physical_scales
+        from thinfilm.plate.units import file_scales
 
-            scales = physical_scales(f["material"].attrs, int(f["grid"].attrs["dim"]))
+        lines = super().info(f, steps)
+        scales = file_scales(f)
+        peak = [i for i, line in enumerate(lines) if line.startswith("peak force")]
+        if peak and "force_si" in steps and scales is not None:
+            k = int(np.nanargmax(steps["force"]))
+            lines.insert(peak[0] + 1, f"  in SI units: {steps['force_si'][k]:.6g} {scales['force_unit']} at a"
+                                      f" displacement of {steps['displacement_si'][k]:.6g} m")
+        n = len(steps["t"])
+        if n and scales is not None:
             e, unit = scales["energy"], scales["energy_unit"]
             lines.append(f"energies at the last finished step in SI units: elastic {steps['elastic'][-1] * e:.6g},"
                          f" surface {steps['surface'][-1] * e:.6g}, total {steps['total'][-1] * e:.6g} {unit}"
-                         f" (1 = D = {e:.6g} {unit}; lengths: 1 = L = {scales['length']:.6g} m)")
+                         f" (a unit of energy: {e:.6g} {unit}; of length: L = {scales['length']:.6g} m)")
         if n and int(f["grid"].attrs["dim"]) == 2:
             from thinfilm.plate.cracks import crack_positions
             from thinfilm.plate.crack_metrics import measure_step

@@ -28,7 +28,7 @@ import numpy as np
 
 from thinfilm.plate.loads import contact_radius
 from thinfilm.plate.results import crack_events
-from thinfilm.plate.units import run_scales
+from thinfilm.plate.units import file_scales
 from thinfilm.plots import (DPI, force_displacement_figure, image_extent, line_figure, plt, progress_note,
                             secondary_si_axis, si_prefix)
 
@@ -53,7 +53,7 @@ def force_figure(res, outdir):
         ylabel = ylabel.replace("(D/L)", "(D/L per unit width)")
     events = [t for t, _ in crack_events(res.t, res.cracks())]
     physical = None
-    scales = run_scales(res)
+    scales = file_scales(res.file)
     if "force_si" in res.steps and scales is not None:
         L, unit = scales["length"], scales["force"]
         d_factor, d_prefix = si_prefix(np.nanmax(res.steps["displacement"]) * L)
@@ -150,15 +150,16 @@ def crack_metrics_figure(res, outdir):
                         top=1.0 - 0.5 / (2.6 * rows + 0.8), hspace=0.12)
     marker = "o" if len(t) <= 40 else "."
     ax = axes[0]
-    ax.plot(res.t, res.crack_length(), color="black", label="surface energy / toughness")
+    crack_length = res.crack_length()  # an imperfect film's is computed step by step: once
+    ax.plot(res.t, crack_length, color="black", label="surface energy / toughness")
     ax.plot(t, [m.length_skeleton for m in metrics], marker, ms=4, ls="none", color="tab:red",
             label="skeleton of alpha >= 0.9")
     ax.set_ylabel("crack length (L)")
     ax.legend(fontsize=8)
-    physical = run_scales(res)
+    physical = file_scales(res.file)
     if physical:  # the lengths in SI on a second axis
         fig.subplots_adjust(right=1.0 - 0.95 / 6.4)
-        secondary_si_axis(ax, "right", physical["length"], res.crack_length(), "m", "length")
+        secondary_si_axis(ax, "right", physical["length"], crack_length, "m", "length")
     ax = axes[1]
     counts = [("cracks", [m.cracks for m in metrics]), ("fragments", [m.fragments for m in metrics]),
               ("intact fragments", [m.intact_fragments for m in metrics]),
@@ -177,7 +178,7 @@ def crack_metrics_figure(res, outdir):
         ax.plot([], [], marker, ms=4, color="tab:red", label="ring radii (alpha averaged over circles >= 0.9)")
         load = np.linspace(0.0, min(max(res.t_max, res.t[-1]), 1.0), 200)
         radius = float(res.parameters["radius"])
-        ax.plot(load, radius * np.sqrt(load * (2.0 - load)), color="black", lw=1.0, label="contact radius")
+        ax.plot(load, contact_radius(radius, load), color="black", lw=1.0, label="contact radius")
         ax.set_ylabel("radius (L)")
         ax.legend(fontsize=8)
         if physical:

@@ -43,7 +43,7 @@ import math
 
 from thinfilm.plate.symmetry import GROUPS
 from thinfilm.resources import BASE_BYTES, STEP_BYTES, Estimate, Size, count, size
-from thinfilm.solvers.linear import AUTO_AMG_MIN_UNKNOWNS, AUTO_AMG_MIN_UNKNOWNS_SUPERLU
+from thinfilm.solvers.linear import auto_kind
 
 __all__ = ["NODE_BYTES", "FIELD_BYTES", "factor_bytes", "solver_kind", "memory", "estimate"]
 
@@ -62,11 +62,11 @@ def factor_bytes(dim, n):
 
 def solver_kind(linear, unknowns):
     """``"direct"`` or ``"amg"``: the scene's ``linear``, with ``"auto"`` chosen as
-    :func:`thinfilm.solvers.linear.make_solver` chooses it."""
+    :func:`thinfilm.solvers.linear.make_solver` chooses it (:func:`~thinfilm.solvers.linear.auto_kind`;
+    whether PARDISO is installed is asked of the import system, without loading MKL)."""
     if linear != "auto":
         return linear
-    pardiso = importlib.util.find_spec("pypardiso") is not None
-    return "amg" if unknowns >= (AUTO_AMG_MIN_UNKNOWNS if pardiso else AUTO_AMG_MIN_UNKNOWNS_SUPERLU) else "direct"
+    return auto_kind(unknowns, importlib.util.find_spec("pypardiso") is not None)
 
 
 def memory(cells, steps, linear="auto", symmetry="none"):

@@ -22,6 +22,7 @@ h = 0.1 um, nu = 0.3), (2.13) gives G~ = 0.053, ten times the printed 5e-3 (``do
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -108,35 +109,38 @@ class Material:
                 "rigidity": self.rigidity}
 
 
+def stored_material(attrs):
+    """The :class:`Material` of a results file's ``/material`` attributes (its fields are
+    among them, beside the derived groups)."""
+    return Material(**{f.name: float(attrs[f.name]) for f in dataclasses.fields(Material)})
+
+
 def physical_scales(material, dim):
-    """The SI value of one non-dimensional unit of length, energy and force, from a results
-    file's ``/material`` attributes (``L``, ``rigidity``).
+    """The SI value of one non-dimensional unit of length, energy and force.
 
     Parameters
     ----------
-    material : mapping
-        ``L`` (m) and ``rigidity`` ``D`` (N m).
+    material : Material
     dim : {1, 2}
         The film's dimension: a 1D film's energies and forces are per metre of width.
 
     Returns
     -------
     dict
-        ``length`` (m per L), ``energy`` (J, or J/m in 1D, per unit), ``force`` (N, or N/m),
-        and their unit names ``length_unit``, ``energy_unit``, ``force_unit``.
+        ``length`` (m per L), ``energy`` (J, or J/m in 1D, per unit:
+        :meth:`Material.energy_unit`), ``force`` (N, or N/m: :meth:`Material.force_unit`), and
+        their unit names ``length_unit``, ``energy_unit``, ``force_unit``.
     """
-    L, D = float(material["L"]), float(material["rigidity"])
-    energy = D if dim == 2 else D / L
-    return {"length": L, "energy": energy, "force": energy / L, "length_unit": "m",
-            "energy_unit": "J" if dim == 2 else "J/m", "force_unit": "N" if dim == 2 else "N/m"}
+    return {"length": material.L, "energy": material.energy_unit(dim), "force": material.force_unit(dim),
+            "length_unit": "m", "energy_unit": "J" if dim == 2 else "J/m", "force_unit": "N" if dim == 2 else "N/m"}
 
 
-def run_scales(results):
-    """:func:`physical_scales` of an open results file (``results.file``, ``results.dim``) whose
-    scene had a ``[material]``; None without one."""
-    if "material" not in results.file:
+def file_scales(file):
+    """:func:`physical_scales` of an open plate results file (an ``h5py.File``) whose scene had a
+    ``[material]``; None without one."""
+    if "material" not in file:
         return None
-    return physical_scales(results.file["material"].attrs, results.dim)
+    return physical_scales(stored_material(file["material"].attrs), int(file["grid"].attrs["dim"]))
 
 
 def toughness_from_KIC(K_IC, E):

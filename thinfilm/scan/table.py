@@ -205,13 +205,7 @@ def draw(outdir, plan, table_rows):
         if groups and len(groups) > 1:
             ax.legend(fontsize="small")
     axes[-1, 0].set_xlabel(x_key)
-    axes[0, 0].set_title(f"scan of {Path(plan['base']).name}" + (f" ({len(done)} of {len(table_rows)} runs done)"
-                                                                  if len(done) < len(table_rows) else ""))
-    fig.tight_layout()
-    path = Path(outdir) / FIGURE
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, axes, outdir, plan, done, table_rows, plt)
 
 
 def _draw_zip(outdir, plan, table_rows, done, metrics, plt):
@@ -226,6 +220,11 @@ def _draw_zip(outdir, plan, table_rows, done, metrics, plt):
         ax.grid(alpha=0.3)
     keys = ", ".join(k.split(".")[-1] for k in plan["keys"])
     axes[-1, 0].set_xlabel(f"run, in the scan file's order (together: {keys}; values in {TABLE})", wrap=True)
+    return _save(fig, axes, outdir, plan, done, table_rows, plt)
+
+
+def _save(fig, axes, outdir, plan, done, table_rows, plt):
+    """Title ``scan.png`` (with the runs done so far) and write it."""
     axes[0, 0].set_title(f"scan of {Path(plan['base']).name}" + (f" ({len(done)} of {len(table_rows)} runs done)"
                                                                   if len(done) < len(table_rows) else ""))
     fig.tight_layout()

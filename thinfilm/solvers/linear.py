@@ -68,6 +68,7 @@ __all__ = [
     "DirectSolver",
     "AMGSolver",
     "make_solver",
+    "auto_kind",
     "pardiso_available",
     "pardiso_reproducible",
     "AUTO_AMG_MIN_UNKNOWNS",
@@ -416,16 +417,20 @@ class _PardisoBackend:
             raise LinearSolverError(f"PARDISO phase {phase} failed: {exc}",
                                     kind="direct:pardiso") from exc
 
+    def _threads_changed(self):
+        """Whether MKL's thread count differs from the analysis's."""
+        return int(self._max_threads()) != self._threads
+
     def factor(self, K):
-        if int(self._max_threads()) != self._threads:
+        if self._threads_changed():
             self._analyse()
         self.U.data[:] = K.data[self.gather]
         self._phase(22, np.zeros(self.U.shape[0]))
 
     def solve(self, b):
-        if int(self._max_threads()) != self._threads:  # changed since the factorization
+        if self._threads_changed():  # since the factorization: redo both, U holds the last values
             self._analyse()
-            self._phase(22, np.zeros(self.U.shape[0]))  # U holds the last values
+            self._phase(22, np.zeros(self.U.shape[0]))
         return self._phase(33, np.ascontiguousarray(b))
 
     def close(self):
@@ -849,6 +854,22 @@ class AMGSolver(_LinearSolver):
 # --------------------------------------------------------------------------------------------
 
 
+def auto_kind(n, pardiso, near_nullspace=True):
+    """The solver ``kind = "auto"`` gives a system of ``n`` unknowns: ``"amg"`` from
+    :data:`AUTO_AMG_MIN_UNKNOWNS` unknowns (:data:`AUTO_AMG_MIN_UNKNOWNS_SUPERLU` without
+    PARDISO) if the model gives a near-nullspace, else ``"direct"``.
+
+    Parameters
+    ----------
+    n : int
+    pardiso : bool
+        Whether PARDISO is the direct backend (the memory estimate asks without loading MKL).
+    near_nullspace : bool
+    """
+    limit = AUTO_AMG_MIN_UNKNOWNS if pardiso else AUTO_AMG_MIN_UNKNOWNS_SUPERLU
+    return "amg" if (near_nullspace and n >= limit) else "direct"
+
+
 def make_solver(kind, pattern, *, near_nullspace=None, **options):
     """Make a u-problem solver for one sparsity pattern.
 
@@ -874,9 +895,7 @@ def make_solver(kind, pattern, *, near_nullspace=None, **options):
     if kind not in KINDS:
         raise ValueError(f"kind = {kind!r}; allowed: {KINDS}")
     if kind == "auto":
-        n = pattern.shape[0]
-        limit = AUTO_AMG_MIN_UNKNOWNS if pardiso_available() else AUTO_AMG_MIN_UNKNOWNS_SUPERLU
-        kind = "amg" if (near_nullspace is not None and n >= limit) else "direct"
+        kind = auto_kind(pattern.shape[0], pardiso_available(), near_nullspace is not None)
     common = {k: options.pop(k) for k in ("rtol",) if k in options}
     if kind == "direct":
         allowed = {"backend", "max_refine"}
