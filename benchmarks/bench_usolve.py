@@ -12,12 +12,14 @@ a T-junction, a ring and a partial crack, alpha = 1 across them), loads it by pu
 - ``resolve``: after the partial crack grows by 5 cells, ``update(K) + solve`` with reuse
   (PARDISO/SuperLU: numeric refactorization with the kept analysis/order; AMG: kept hierarchy,
   warm start from the previous u), rtol = 1e-8;
-- ``resolve_loose`` (AMG only): the crack grows 5 more cells, warm start, rtol = 1e-6;
+- ``resolve_loose`` (AMG and single-precision PARDISO, whose work depends on the tolerance):
+  the crack grows 5 more cells, warm start, rtol = 1e-6;
 - ``peak_gb``: the subprocess's peak resident memory; ``base_gb`` what the test matrices alone
   held before any solver ran.
 
 Cases: ``plain`` (``scipy.sparse.linalg.spsolve`` on the grown crack, the baseline every ratio
-refers to, measured in the same invocation), ``pardiso`` and ``superlu`` (``kind="direct"``
+refers to, measured in the same invocation), ``pardiso``, ``pardiso-single`` (the factorization
+in single precision, each solve refined by CG to rtol) and ``superlu`` (``kind="direct"``
 backends), ``amg`` (``kind="amg"``, told the plate's near-nullspace,
 :func:`thinfilm.plate.operators.near_nullspace`). Cases whose estimated cost is past ~5
 minutes or ~12 GB are skipped and listed as such.
@@ -46,7 +48,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).resolve().parent / "results"
-CASES = ("plain", "pardiso", "superlu", "amg")
+CASES = ("plain", "pardiso", "pardiso-single", "superlu", "amg")
 FIELDS = ["m", "unknowns", "nnz", "case", "status", "first_setup_s", "first_solve_s",
           "first_s", "first_iterations", "resolve_s", "resolve_s_max", "resolve_setup_s",
           "resolve_rebuilt", "resolve_iterations",
@@ -101,7 +103,8 @@ def worker(m, case):
                        resolve_residual=relres(K2, u))
         else:
             kind = "amg" if case == "amg" else "direct"
-            opts = {} if kind == "amg" else {"backend": case}
+            opts = ({} if kind == "amg" else {"backend": "pardiso", "precision": "single"} if case == "pardiso-single"
+                    else {"backend": case, "precision": "double"})
             t = time.perf_counter()  # construction included: PARDISO analyses there
             solver = make_solver(kind, K1, near_nullspace=near_nullspace(coords), **opts)
             solver.update(K1)
@@ -123,13 +126,14 @@ def worker(m, case):
             row.update(resolve_s=best[0], resolve_s_max=max(s[0] for s in samples),
                        resolve_setup_s=best[1].time_setup, resolve_rebuilt=best[1].rebuilt,
                        resolve_iterations=best[1].iterations, resolve_residual=best[2])
-            if kind == "amg":
+            if case in ("amg", "pardiso-single"):  # solvers whose work depends on rtol
                 K3 = plate_test_matrix(crack_bands(m, grow=11), winkler=winkler, k_res=1e-6)
                 t = time.perf_counter()
                 solver.update(K3)
                 _, i3 = solver.solve(f, x0=u_prev, rtol=1e-6)
                 row.update(resolve_loose_s=time.perf_counter() - t,
                            resolve_loose_iterations=i3.iterations)
+            if kind == "amg":
                 row["note"] += f"; operator complexity {solver.operator_complexity():.2f}"
     except LinearSolverError as exc:
         row.update(status="failed", note=str(exc))
@@ -140,7 +144,7 @@ def worker(m, case):
 def run_case(m, case, timeout):
     if (case, m) in SKIP:
         return dict(m=m, unknowns=m * m, case=case, status="skipped", note=SKIP[(case, m)])
-    if case == "pardiso":
+    if case.startswith("pardiso"):
         from thinfilm.solvers.linear import pardiso_available
 
         if not pardiso_available():
@@ -195,7 +199,9 @@ def write_outputs(rows, command, out=RESULTS):
         "Machine: 2 cores, 24 GB; numpy/scipy with OpenBLAS, MKL from the `mkl` wheel.",
         "Problem: nu = 0.3, winkler = 4e6 (lam = 31.6), k_res = 1e-6, crack bands with",
         "alpha = 1; re-solves after the partial crack grows 5 cells, then 1 more; rtol = 1e-8",
-        "unless noted (the loose AMG re-solve: 5 cells more).",
+        "unless noted (the loose re-solve of AMG and single-precision PARDISO: 5 cells more).",
+        "`pardiso-single`: the factorization in single precision, each solve refined by CG",
+        "preconditioned by it to rtol (`its` = refinement steps).",
         "`first` = construction + setup + first solve; `re-solve` = update + solve with reuse (direct:",
         "numeric refactorization with the kept analysis; amg: kept hierarchy, warm start);",
         "ratios divide by `plain` (`scipy.sparse.linalg.spsolve`, COLAMD) at the same size.",
@@ -228,6 +234,17 @@ def write_outputs(rows, command, out=RESULTS):
             f"{loose} | {fmt(r.get('peak_gb'), '.2f')} ({fmt(r.get('base_gb'), '.2f')}) | "
             f"{fmt(r.get('ratio_first'), '.2f')} | {fmt(r.get('ratio_resolve'), '.2f')} | "
             f"{r.get('note', '')} |")
+    by_case = {(int(r["m"]), r["case"]): r for r in rows if r.get("status") == "ok"}
+    ratios = []
+    for m in sorted({int(r["m"]) for r in rows}):
+        single, double = by_case.get((m, "pardiso-single")), by_case.get((m, "pardiso"))
+        if single and double and single.get("command") == double.get("command"):
+            ratios.append(f"{m}^2: re-solve {float(single['resolve_s']) / float(double['resolve_s']):.2f},"
+                          f" at rtol 1e-6 {float(single['resolve_loose_s']) / float(double['resolve_s']):.2f},"
+                          f" peak memory {float(single['peak_gb']) / float(double['peak_gb']):.2f}")
+    if ratios:
+        lines += ["", "Single-precision PARDISO against double in the same invocation (ratios of times): "
+                  + "; ".join(ratios) + "."]
     (out / "usolve.md").write_text("\n".join(lines) + "\n")
     plot(rows, out)
 
@@ -239,7 +256,7 @@ def plot(rows, out=RESULTS):
     import matplotlib.pyplot as plt
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.2))
-    styles = {"plain": "k", "pardiso": "C0", "superlu": "C2", "amg": "C3"}
+    styles = {"plain": "k", "pardiso": "C0", "pardiso-single": "C1", "superlu": "C2", "amg": "C3"}
     for case in CASES:
         rs = [r for r in rows if r["case"] == case and r.get("status") == "ok"]
         if not rs:

@@ -107,8 +107,9 @@ def build_model(scene, mesh):
     kind = scene.solver.linear
     if kind == "auto":
         kind = "amg" if (m.dim == 3 and K.shape[0] >= AMG_MIN_DOFS_3D) else "direct"
-    amg = dict(near_nullspace=elasticity.rigid_modes(), **AMG_OPTIONS) if kind == "amg" else {}
-    solver = make_solver(kind, K, **amg)
+    options = (dict(near_nullspace=elasticity.rigid_modes(), **AMG_OPTIONS) if kind == "amg"
+               else {"precision": scene.solver.precision})
+    solver = make_solver(kind, K, **options)
     return FemModel(mesh, elasticity, damage, loads, solver)
 
 

@@ -32,6 +32,7 @@ from thinfilm import kinds
 from thinfilm.engine.options import SCENE_GROUPS, EngineOptions
 from thinfilm.options import OptionError, Rule, option, reference_rows, scene_keys, validate
 from thinfilm.solvers.linear import KINDS as LINEAR_KINDS
+from thinfilm.solvers.linear import PRECISIONS
 
 __all__ = ["SceneError", "Table", "show", "SolverSettings", "read_solver", "read_snapshots", "parse_scene", "load_scene",
            "apply_overrides", "read_text"]
@@ -197,12 +198,17 @@ class SolverSettings(EngineOptions):
         The engine's option groups (:class:`thinfilm.engine.options.EngineOptions`).
     linear : {"auto", "direct", "amg"}
         The linear solver of the u-problem (:func:`thinfilm.solvers.linear.make_solver`).
+    precision : {"auto", "double", "single"}
+        Precision of the direct solver's factorization (:class:`thinfilm.solvers.linear.DirectSolver`).
     threads : "auto" or int
         Threads of MKL, OpenMP and Numba (:mod:`thinfilm.threads`); never changes a result.
     """
 
     linear: str = option("auto", "u-problem solver: sparse direct, AMG-preconditioned CG, or chosen by size",
                          rule=Rule("choice", choices=LINEAR_KINDS))
+    precision: str = option("auto", "precision of the direct solver's factorization: single (PARDISO) refines each solve"
+                            " by CG to the tolerance alternate minimization asks; auto = single from 10^6 unknowns",
+                            rule=Rule("choice", choices=PRECISIONS))
     threads: object = option("auto", "threads of MKL (PARDISO), OpenMP and Numba: the cores other processes leave"
                              " idle, measured at each step, or a fixed number (docs/speed.md#threads); `--threads`"
                              " overrides it", rule=Rule("integer", minimum=1, words=("auto",),

@@ -25,8 +25,10 @@ RTOL = 1e-8
 WINKLER = 4.0 * 2.0**4
 
 DIRECT_BACKENDS = ["superlu"] + (["pardiso"] if pardiso_available() else [])
-ALL_KINDS = [("direct", {"backend": b}) for b in DIRECT_BACKENDS] + [("amg", {})]
-KIND_IDS = [f"direct-{b}" for b in DIRECT_BACKENDS] + ["amg"]
+# single precision: PARDISO's factorization in float32, each solve refined by CG to rtol
+SINGLE = [("direct", {"backend": "pardiso", "precision": "single"})] if pardiso_available() else []
+ALL_KINDS = [("direct", {"backend": b}) for b in DIRECT_BACKENDS] + SINGLE + [("amg", {})]
+KIND_IDS = [f"direct-{b}" for b in DIRECT_BACKENDS] + ["direct-pardiso-single"] * len(SINGLE) + ["amg"]
 
 
 def bending_load(m, winkler=WINKLER, t=1.0):
@@ -117,6 +119,58 @@ def test_direct_refactorizes_only_after_update(cracked):
     u, i3 = s.solve(f)
     assert i1.rebuilt and not i2.rebuilt and i3.rebuilt
     assert relres(K2, f, u) <= RTOL
+
+
+@pytest.mark.skipif(not pardiso_available(), reason="single precision needs PARDISO")
+@pytest.mark.parametrize("rtol", [1e-5, 1e-8])
+def test_single_precision_is_refined_to_the_asked_residual(cracked, rtol):
+    """The float32 factorization alone is far from rtol; CG refines each solve to it, and the
+    result agrees with the double-precision solve as the residual bound allows."""
+    K1, _, f, _ = cracked
+    exact, _ = DirectSolver(K1, backend="pardiso", precision="double")(K1, f)
+    single = DirectSolver(K1, backend="pardiso", precision="single")
+    u, info = single(K1, f, rtol=rtol)
+    assert single.kind == "direct:pardiso-single" and single.precision == "single"
+    assert info.iterations >= 1  # the refinement ran: the float32 solve alone misses rtol
+    assert info.residual <= rtol and relres(K1, f, u) <= rtol * 1.01
+    # the energy-norm error of an approximate solve is bounded by its residual:
+    # ||u - u*||_K^2 = r.K^-1 r <= |r|^2 / lambda_min(K)
+    lam_min = spla.eigsh(K1, k=1, sigma=0, which="LM", return_eigenvectors=False)[0]
+    error = u - exact
+    assert float(error @ (K1 @ error)) <= (np.linalg.norm(f - K1 @ u) ** 2 / lam_min) * 1.01 + 1e-30
+
+
+@pytest.mark.skipif(not pardiso_available(), reason="single precision needs PARDISO")
+def test_single_precision_refinement_starts_from_a_close_x0(cracked):
+    """After a small change of K (the crack grown by 2 cells), the last solution is a closer
+    start than the float32 solve: fewer refinement steps, the same residual bound; a start
+    far off (zeros) is not taken."""
+    K1, K2, f, _ = cracked
+    single = DirectSolver(K1, backend="pardiso", precision="single")
+    u1, _ = single(K1, f, rtol=1e-8)
+    _, cold = single(K2, f, rtol=1e-8)
+    u2, warm = single(K2, f, x0=u1, rtol=1e-8)
+    assert relres(K2, f, u1) < 0.1  # the start taken
+    assert warm.residual <= 1e-8 and relres(K2, f, u2) <= 1e-8 * 1.01
+    assert warm.iterations < cold.iterations
+    _, zero = single(K2, f, x0=np.zeros_like(f), rtol=1e-8)
+    assert zero.iterations == cold.iterations
+
+
+def test_precision_auto_rule_and_refusals(cracked, monkeypatch):
+    import thinfilm.solvers.linear as linear
+
+    K1 = cracked[0]
+    assert DirectSolver(K1, backend="superlu").precision == "double"
+    with pytest.raises(ValueError, match="needs the PARDISO backend"):
+        DirectSolver(K1, backend="superlu", precision="single")
+    with pytest.raises(ValueError, match="precision"):
+        DirectSolver(K1, precision="half")
+    if pardiso_available():
+        assert DirectSolver(K1, backend="pardiso").precision == "double"  # below the threshold
+        monkeypatch.setattr(linear, "AUTO_SINGLE_MIN_UNKNOWNS", K1.shape[0])
+        assert DirectSolver(K1, backend="pardiso").precision == "single"
+        assert make_solver("direct", K1, precision="double").precision == "double"
 
 
 def test_superlu_reused_order_matches_first_factorization(cracked):

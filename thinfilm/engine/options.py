@@ -32,6 +32,17 @@ class AltMinOptions:
     ----------
     tol : float
         Convergence when ``max |alpha_new - alpha| < tol``.
+    stop : {"change", "energy"}
+        ``"energy"``: also converged, before the change of alpha is below ``tol``, once the
+        energy has settled: its decrease has fallen for a few iterations and, summed with the
+        geometric tail it promises, is below ``energy_tol |E|``, the damage's scaled KKT
+        residual is below ``kkt_factor tol`` and the change of alpha is falling
+        (:meth:`thinfilm.engine.evolution.Engine._energy_settled`). ``"change"``: ``tol``
+        only.
+    energy_tol : float
+        The energy stop's bound on the remaining decrease of the energy, relative to it.
+    kkt_factor : float
+        The energy stop's bound on the scaled KKT residual, in units of ``tol``.
     max_iter : int
         Iterations per load step before :class:`thinfilm.engine.evolution.EvolutionError`.
     acceleration : {"none", "overrelax"}
@@ -74,6 +85,13 @@ class AltMinOptions:
 
     tol: float = option(1e-4, "alternate minimization stops when no node's damage changes by this much",
                         rule=_POSITIVE, units="damage")
+    stop: str = option("change", "stop criterion: the change of alpha below tol only, or also a settled energy"
+                       " (energy_tol) at a near-stationary state (kkt_factor)",
+                       rule=Rule("choice", choices=("change", "energy")))
+    energy_tol: float = option(1e-6, "the energy stop: largest remaining decrease of the energy, relative to it",
+                               rule=_POSITIVE)
+    kkt_factor: float = option(10.0, "the energy stop: largest scaled KKT residual of the damage, in units of tol",
+                               rule=Rule("number", minimum=1.0))
     max_iter: int = option(2000, "alternate-minimization iterations allowed per load step",
                            rule=Rule("integer", minimum=1))
     acceleration: str = option("none", "over-relaxation of the damage updates (kept only where it lowers the"

@@ -48,6 +48,12 @@ class StepRecord:
         Stored, so that a resumed run makes the same choice as an uninterrupted one.
     time_u, time_alpha, time_total : float
         Wall-clock seconds in u-solves, alpha-solves and in the whole step.
+    kkt : float
+        Scaled KKT residual of the damage problem at the last u-solve, before the last
+        alpha-solve (units of damage): how far that pair ``(u, alpha)`` is from stationary.
+    stopped_by_energy : int
+        1 if alternate minimization stopped on its settled energy (``stop = "energy"``)
+        before the change of alpha fell below ``tol``.
     energy_history : list of float
         Total energy after every half-step of alternate minimization (non-increasing).
     """
@@ -70,6 +76,8 @@ class StepRecord:
     lowest_curvature: float = math.nan
     saddles_left: int = 0
     u_rescalable: int = 0
+    kkt: float = math.nan
+    stopped_by_energy: int = 0
     energy_history: list = field(default_factory=list)
 
 

@@ -123,7 +123,7 @@ def make_model(scene, grid):
     if symmetry is not None:
         coords = coords[symmetry.representative]
     model.linear_solver = make_solver(scene.solver.linear, model.reduced_matrix(np.zeros(grid.n_nodes)),
-                                      near_nullspace=near_nullspace(coords))
+                                      near_nullspace=near_nullspace(coords), precision=scene.solver.precision)
     return model
 
 

@@ -26,7 +26,8 @@ symmetry group) and ``S + 1`` load steps::
   factors), outside Python's heap: 370 B per unknown in 1D (367-382 from 1e4 to 1e6
   unknowns); ``100 log2(n) - 112`` B per unknown in 2D, nested dissection's ``n log n`` fill
   (1206, 1389, 1576 and 1817 B measured at 101^2, 201^2, 401^2 and 801^2 nodes; the formula
-  gives 1220, 1419, 1619 and 1817).
+  gives 1220, 1419, 1619 and 1817). A single-precision factorization (``[solver] precision``)
+  holds half of it.
 * ``16 N`` per step: ``u`` and ``alpha`` of every finished step, which the engine keeps until
   the evolution ends (backtracking may return to any of them); ``STEP_BYTES``
   (:mod:`thinfilm.resources`): the step's records and its share of the figures.
@@ -43,7 +44,7 @@ import math
 
 from thinfilm.plate.symmetry import GROUPS
 from thinfilm.resources import BASE_BYTES, STEP_BYTES, Estimate, Size, count, size
-from thinfilm.solvers.linear import auto_kind
+from thinfilm.solvers.linear import AUTO_SINGLE_MIN_UNKNOWNS, auto_kind
 
 __all__ = ["NODE_BYTES", "FIELD_BYTES", "factor_bytes", "solver_kind", "memory", "estimate"]
 
@@ -69,7 +70,15 @@ def solver_kind(linear, unknowns):
     return auto_kind(unknowns, importlib.util.find_spec("pypardiso") is not None)
 
 
-def memory(cells, steps, linear="auto", symmetry="none"):
+def single_precision(precision, unknowns):
+    """Whether the direct solver factors in single precision, as
+    :class:`thinfilm.solvers.linear.DirectSolver` decides it (PARDISO asked of the import system)."""
+    if precision != "auto":
+        return precision == "single"
+    return importlib.util.find_spec("pypardiso") is not None and unknowns >= AUTO_SINGLE_MIN_UNKNOWNS
+
+
+def memory(cells, steps, linear="auto", symmetry="none", precision="auto"):
     """Bytes a run needs, and how they were reckoned.
 
     Parameters
@@ -81,6 +90,8 @@ def memory(cells, steps, linear="auto", symmetry="none"):
     symmetry : str
         A group of :data:`thinfilm.plate.symmetry.GROUPS` (the u-problem's unknowns are the
         nodes' orbits under it).
+    precision : {"auto", "double", "single"}
+        The direct solver's factorization (single: half the factor's bytes).
 
     Returns
     -------
@@ -93,7 +104,8 @@ def memory(cells, steps, linear="auto", symmetry="none"):
     nodes = math.prod(c + 1 for c in cells)
     unknowns = max(nodes // 2 ** len(GROUPS[symmetry]), 1)
     kind = solver_kind(linear, unknowns)
-    per_node = NODE_BYTES[dim, kind] + (unknowns / nodes * factor_bytes(dim, unknowns) if kind == "direct" else 0.0)
+    factor = factor_bytes(dim, unknowns) * (0.5 if single_precision(precision, unknowns) else 1.0)
+    per_node = NODE_BYTES[dim, kind] + (unknowns / nodes * factor if kind == "direct" else 0.0)
     per_step = FIELD_BYTES * nodes + STEP_BYTES
     model, fields = nodes * per_node, (steps + 1) * per_step
     detail = (f"{count(nodes)} nodes x {size(per_node)} for the model and its {kind} solver, and"
@@ -106,12 +118,12 @@ def estimate(scene):
     ``domain.cells`` if the grid alone (with the fewest steps) cannot fit, else on whichever of
     the model and the steps' fields and records needs more."""
     dom, load = scene.domain, scene.load
-    linear, symmetry = scene.solver.linear, dom.symmetry
-    total, detail, model, fields = memory(dom.cells, load.steps, linear, symmetry)
+    linear, symmetry, precision = scene.solver.linear, dom.symmetry, scene.solver.precision
+    total, detail, model, fields = memory(dom.cells, load.steps, linear, symmetry, precision)
     least_cells = tuple(2 for _ in dom.cells)
     cells_value = dom.cells[0] if dom.dim == 1 else list(dom.cells)
-    sizes = (Size("domain.cells", cells_value, memory(dom.cells, 2, linear, symmetry)[0], model,
+    sizes = (Size("domain.cells", cells_value, memory(dom.cells, 2, linear, symmetry, precision)[0], model,
                   remedy="use fewer cells"),
-             Size("load.steps", load.steps, memory(least_cells, load.steps, linear)[0], fields,
+             Size("load.steps", load.steps, memory(least_cells, load.steps, linear, symmetry, precision)[0], fields,
                   remedy="use fewer steps"))
     return Estimate(total, detail, sizes)

@@ -51,10 +51,10 @@ __all__ = ["ResumeError", "ResultsWriter", "STEP_FIELDS", "INTEGER_STEP_FIELDS",
 #: Per-step records of an engine run, in /steps (names of thinfilm.engine.records.StepRecord).
 STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_solves_skipped",
                "backtracks", "trials", "trials_accepted", "time_u", "time_alpha", "time_total",
-               "lowest_curvature", "saddles_left", "u_rescalable")
+               "lowest_curvature", "saddles_left", "u_rescalable", "kkt", "stopped_by_energy")
 #: The integer ones among them.
 INTEGER_STEP_FIELDS = ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials", "trials_accepted",
-                       "saddles_left", "u_rescalable", "threads")
+                       "saddles_left", "u_rescalable", "stopped_by_energy", "threads")
 
 
 def root_attributes(scene):

@@ -72,10 +72,14 @@ __all__ = [
     "pardiso_available",
     "pardiso_reproducible",
     "AUTO_AMG_MIN_UNKNOWNS",
+    "AUTO_SINGLE_MIN_UNKNOWNS",
     "KINDS",
+    "PRECISIONS",
 ]
 
 KINDS = ("auto", "direct", "amg")
+#: Precisions of the direct solver's factorization (:class:`DirectSolver`).
+PRECISIONS = ("auto", "double", "single")
 
 #: ``kind="auto"`` picks ``"amg"`` from this many unknowns on. Measured on 2 cores (see
 #: ``benchmarks/results/usolve.md``): PARDISO's refactorization beat the AMG re-solve (kept
@@ -86,8 +90,21 @@ AUTO_AMG_MIN_UNKNOWNS = 1501 * 1501
 #: The same crossover when only scipy's SuperLU is available (no ``pypardiso``): SuperLU's
 #: refactorization beat the AMG re-solve at 250^2 and lost from 500^2 on.
 AUTO_AMG_MIN_UNKNOWNS_SUPERLU = 400 * 400
+#: ``precision="auto"`` factors in single precision (PARDISO only) from this many unknowns
+#: on. Measured (``benchmarks/results/usolve.md``, ``precision.md``): a re-solve took 0.60x
+#: (1000^2) and 0.89x (1500^2) of double precision's at rtol 1e-8, 0.51x and 0.71x at 1e-6,
+#: and 0.57x inside alternate minimization at 1000^2; below 10^6 unknowns the factorization
+#: is cheap, and double keeps every solve exact to round-off (and every result below that
+#: size unchanged).
+AUTO_SINGLE_MIN_UNKNOWNS = 1000 * 1000
 
 DEFAULT_RTOL = 1e-8
+#: CG steps allowed to refine a single-precision solve (14 reached 1e-8 at 1500^2).
+SINGLE_MAX_REFINE = 60
+#: A single-precision solve starts its refinement from ``x0`` if x0's relative residual is
+#: below this; the float32 solve itself leaves 0.5-1.4 on the cracked test plate at 1000^2
+#: and 1500^2.
+SINGLE_START_RESIDUAL = 0.1
 
 
 class LinearSolverError(SolverError):
@@ -381,33 +398,61 @@ class _PardisoBackend:
     one), and so did every later one. The analysis is therefore redone, on the fresh handle,
     whenever the thread count differs from the analysis's (:mod:`thinfilm.threads` changes it
     between load steps).
+
+    ``precision = "single"`` factors ``S K S`` in single precision (PARDISO's ``iparm(28)``),
+    with ``S = diag(K)^(-1/2)`` so that the factored matrix has a unit diagonal whatever the
+    damage; :meth:`solve` then returns ``S (S K S)^-1 S b`` in double, a solve accurate only
+    to ``kappa(K) eps_single`` (relative residual 0.5-1.4 on the cracked test plate at 1000^2
+    and 1500^2), which :class:`DirectSolver` refines by CG. The factor is half the size and
+    its computation 1.4-2x faster (``benchmarks/results/usolve.csv``: 3.4 s against 6.7 s at
+    1000^2, 11.5 s against 16.0 s at 1500^2). Every PARDISO parameter
+    is then set here (``iparm(1) = 1``; otherwise PARDISO overwrites all of them with its
+    defaults, the single-precision flag included): the defaults of an SPD matrix, METIS
+    ordering.
     """
 
     name = "pardiso"
 
-    def __init__(self, pattern: _Pattern):
+    def __init__(self, pattern: _Pattern, precision="double"):
         import pypardiso
 
+        if precision not in PRECISIONS[1:]:
+            raise ValueError(f"precision = {precision!r}; allowed: {PRECISIONS[1:]}")
         self._err = pypardiso.pardiso_wrapper.PyPardisoError
         self.ps = pypardiso.PyPardisoSolver(mtype=2)
         _reproducible(self.ps.libmkl)  # before PARDISO's first call: MKL fixes its branch then
         self.ps.set_iparm(12, 0)  # CSR input, no transposed solve
+        self.single = precision == "single"
+        self.dtype = np.float32 if self.single else np.float64
+        if self.single:
+            self.name = "pardiso-single"
+            iparm = self.ps.iparm  # 0-based here: iparm[k] is PARDISO's iparm(k + 1)
+            iparm[0] = 1   # use the values below, not PARDISO's defaults
+            iparm[1] = 2   # METIS nested-dissection ordering (the default)
+            iparm[9] = 8   # pivot perturbation 1e-8 (the symmetric default; unused for SPD)
+            iparm[27] = 1  # single precision: matrix, right-hand side and solution in float32
         upper = sp.triu(pattern.index_matrix(), format="csr")
         upper.sort_indices()
         self.gather = upper.data.astype(np.int64) - 1
+        self.rows = np.repeat(np.arange(upper.shape[0]), np.diff(upper.indptr))
+        self.cols = upper.indices.astype(np.int64)
         self.U = sp.csr_matrix(
-            (np.ones(self.gather.size), upper.indices.astype(np.int32),
+            (np.ones(self.gather.size, dtype=self.dtype), upper.indices.astype(np.int32),
              upper.indptr.astype(np.int32)), shape=upper.shape)
+        self.scale = None
         self._max_threads = self.ps.libmkl.mkl_get_max_threads
         self._max_threads.restype, self._max_threads.argtypes = ctypes.c_int, []
         self._analyse()
+
+    def _zeros(self):
+        return np.zeros(self.U.shape[0], dtype=self.dtype)
 
     def _analyse(self):
         """Phase 11 on a fresh handle: ordering and symbolic analysis, which need only the
         structure (SPD: no value-based matching), for the present number of MKL threads."""
         self.ps.free_memory(everything=True)
         self._threads = int(self._max_threads())
-        self._phase(11, np.zeros(self.U.shape[0]))
+        self._phase(11, self._zeros())
 
     def _phase(self, phase, b):
         self.ps.set_phase(phase)
@@ -415,7 +460,7 @@ class _PardisoBackend:
             return self.ps._call_pardiso(self.U, b)
         except self._err as exc:
             raise LinearSolverError(f"PARDISO phase {phase} failed: {exc}",
-                                    kind="direct:pardiso") from exc
+                                    kind=f"direct:{self.name}") from exc
 
     def _threads_changed(self):
         """Whether MKL's thread count differs from the analysis's."""
@@ -424,14 +469,25 @@ class _PardisoBackend:
     def factor(self, K):
         if self._threads_changed():
             self._analyse()
-        self.U.data[:] = K.data[self.gather]
-        self._phase(22, np.zeros(self.U.shape[0]))
+        values = K.data[self.gather]
+        if self.single:
+            diagonal = K.diagonal()
+            if not np.all(diagonal > 0.0):  # also NaN; an SPD matrix has a positive diagonal
+                raise LinearSolverError("the matrix is not positive definite (a diagonal entry <= 0)",
+                                        kind=f"direct:{self.name}")
+            self.scale = 1.0 / np.sqrt(diagonal)
+            values = values * self.scale[self.rows] * self.scale[self.cols]
+        self.U.data[:] = values
+        self._phase(22, self._zeros())
 
     def solve(self, b):
         if self._threads_changed():  # since the factorization: redo both, U holds the last values
             self._analyse()
-            self._phase(22, np.zeros(self.U.shape[0]))
-        return self._phase(33, np.ascontiguousarray(b))
+            self._phase(22, self._zeros())
+        if not self.single:
+            return self._phase(33, np.ascontiguousarray(b))
+        x = self._phase(33, np.ascontiguousarray(self.scale * b, dtype=np.float32))
+        return self.scale * x.astype(np.float64)
 
     def close(self):
         try:
@@ -522,16 +578,34 @@ class DirectSolver(_LinearSolver):
         Default relative residual tolerance checked after each solve.
     max_refine : int
         Factorization-preconditioned CG steps allowed when round-off leaves the residual above
-        ``rtol`` (ill-conditioned K, e.g. ``k_res = 1e-10`` on a crack that cuts the plate).
+        ``rtol`` (ill-conditioned K, e.g. ``k_res = 1e-10`` on a crack that cuts the plate),
+        or, in single precision, to refine the solve to ``rtol``.
+    precision : {"auto", "double", "single"}
+        Precision of the factorization. ``"single"`` (PARDISO only): half the factor's
+        memory and 1.4-2x less time per factorization; its solve is accurate to about one
+        digit and is refined to ``rtol`` by CG preconditioned by it (3-6 steps to 1e-8 from
+        the last solution on the cracked test plate at 1000^2 and 1500^2, 1-2 inside
+        alternate minimization), so a solve returns ``rtol``, not round-off. ``"auto"``:
+        single from :data:`AUTO_SINGLE_MIN_UNKNOWNS` unknowns with PARDISO, else double.
     """
 
-    def __init__(self, pattern, *, backend="auto", rtol=DEFAULT_RTOL, max_refine=20):
+    def __init__(self, pattern, *, backend="auto", rtol=DEFAULT_RTOL, max_refine=20, precision="auto"):
         self.pattern = _Pattern(pattern)
         self.n = self.pattern.n
         if backend == "auto":
             backend = "pardiso" if pardiso_available() else "superlu"
+        if precision not in PRECISIONS:
+            raise ValueError(f"precision = {precision!r}; allowed: {PRECISIONS}")
+        if precision == "auto":
+            precision = "single" if backend == "pardiso" and self.n >= AUTO_SINGLE_MIN_UNKNOWNS else "double"
+        if precision == "single" and backend != "pardiso":
+            raise ValueError(f"precision = 'single' needs the PARDISO backend (backend = {backend!r})")
+        self.precision = precision
         if backend == "pardiso":
-            self._backend = _PardisoBackend(self.pattern)
+            self._backend = _PardisoBackend(self.pattern, precision)
+            if precision == "single":
+                # refinement from a solve accurate to ~1 digit: 14 steps to 1e-8 at 1500^2
+                max_refine = max(max_refine, SINGLE_MAX_REFINE)
         elif backend == "superlu":
             self._backend = _SuperLUBackend(self.pattern)
         else:
@@ -554,7 +628,9 @@ class DirectSolver(_LinearSolver):
         ----------
         f : ndarray, shape (n,)
         x0 : ndarray, shape (n,), optional
-            Ignored by the direct solve (accepted so the kinds are interchangeable).
+            In single precision, the start of the refinement if it is closer than the
+            single-precision solve (relative residual below ``SINGLE_START_RESIDUAL``);
+            ignored in double precision (accepted so the kinds are interchangeable).
         rtol : float, optional
             Relative residual to guarantee; default the solver's ``rtol``. Where it lies
             below the round-off floor of ``K`` (the refined solution's normwise backward
@@ -579,14 +655,25 @@ class DirectSolver(_LinearSolver):
         normf = np.linalg.norm(f)
         if normf == 0.0:
             return np.zeros(self.n), SolveInfo(self.kind, 0, 0.0, rtol, t1 - t0, 0.0, rebuilt)
-        u = self._backend.solve(f)
+        u, res = None, float("nan")
+        if self.precision == "single" and x0 is not None:
+            # The refinement starts from the better of x0 and the single-precision solve: in
+            # alternate minimization x0 (the last iteration's u) is often within 1e-3 of
+            # the solution, and each CG step costs a solve with the factor.
+            u = np.array(x0, dtype=np.float64)
+            res = _relres(self.K, f, u, normf) if u.shape == f.shape and np.all(np.isfinite(u)) else float("nan")
+            if not res <= SINGLE_START_RESIDUAL:
+                u = None
+        if u is None:
+            u = self._backend.solve(f)
+            res = _relres(self.K, f, u, normf) if np.all(np.isfinite(u)) else float("nan")
         its = 0
-        res = _relres(self.K, f, u, normf) if np.all(np.isfinite(u)) else float("nan")
         # Above rtol but at the round-off floor (backward error of a few eps): no refinement
         # can lower the residual, which is then just the rounding of K @ u.
         if not res <= rtol and not _at_roundoff(self.K, f, u):  # also catches NaN
-            # Round-off on an ill-conditioned K: CG preconditioned by the exact factorization
-            # converges in a few steps (iterative refinement that cannot diverge).
+            # Round-off on an ill-conditioned K, or a single-precision factorization: CG
+            # preconditioned by the factorization converges in a few steps (iterative
+            # refinement that cannot diverge).
             start = u if np.all(np.isfinite(u)) else None
             u, its, res, _ = _pcg(self.K, f, self._backend.solve, start, rtol,
                                   self.max_refine, self.kind)
@@ -884,7 +971,7 @@ def make_solver(kind, pattern, *, near_nullspace=None, **options):
     near_nullspace : ndarray, shape (n, k), optional
         The model's near-nullspace; required for ``"amg"``.
     **options
-        Passed to :class:`DirectSolver` (``backend``, ``rtol``, ``max_refine``) or
+        Passed to :class:`DirectSolver` (``backend``, ``rtol``, ``max_refine``, ``precision``) or
         :class:`AMGSolver` (``rtol``, ``maxiter``, ``rebuild_factor``,
         ``min_rebuild_iterations`` and pyamg settings). ``rtol`` is accepted by both.
 
@@ -898,10 +985,11 @@ def make_solver(kind, pattern, *, near_nullspace=None, **options):
         kind = auto_kind(pattern.shape[0], pardiso_available(), near_nullspace is not None)
     common = {k: options.pop(k) for k in ("rtol",) if k in options}
     if kind == "direct":
-        allowed = {"backend", "max_refine"}
+        allowed = {"backend", "max_refine", "precision"}
         bad = set(options) - allowed
         if bad:
             raise ValueError(f"unknown options {sorted(bad)} for kind='direct'; "
                              f"allowed: {sorted(allowed | {'rtol'})}")
         return DirectSolver(pattern, **common, **options)
+    options.pop("precision", None)  # AMG factors nothing
     return AMGSolver(pattern, near_nullspace=near_nullspace, **common, **options)
