@@ -434,8 +434,9 @@ class _PardisoBackend:
         upper = sp.triu(pattern.index_matrix(), format="csr")
         upper.sort_indices()
         self.gather = upper.data.astype(np.int64) - 1
-        self.rows = np.repeat(np.arange(upper.shape[0]), np.diff(upper.indptr))
-        self.cols = upper.indices.astype(np.int64)
+        if self.single:  # the row and column of each stored entry, to scale it
+            self.rows = np.repeat(np.arange(upper.shape[0], dtype=np.int32), np.diff(upper.indptr))
+            self.cols = upper.indices.astype(np.int32)
         self.U = sp.csr_matrix(
             (np.ones(self.gather.size, dtype=self.dtype), upper.indices.astype(np.int32),
              upper.indptr.astype(np.int32)), shape=upper.shape)
