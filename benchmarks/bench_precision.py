@@ -21,7 +21,6 @@ Writes ``benchmarks/results/precision.md`` and ``.csv`` (rows merged by grid).
 from __future__ import annotations
 
 import argparse
-import csv
 import os
 import platform
 import sys
@@ -30,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.tables import markdown_table, merge_csv
 from thinfilm.engine import Engine, StepRecord
 from thinfilm.plate.kind import build_grid, make_model
 from thinfilm.plate.sequencing import CoarseDamage
@@ -114,18 +114,8 @@ def main(argv=None):
         row["energy_diff"] = f"{(row['energy'] - base['energy']) / abs(base['energy']):+.1e}"
         row["max_alpha_diff"] = f"{np.max(np.abs(alpha - alpha_base)):.1e}"
         row["command"] = command
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    path = RESULTS / "precision.csv"
-    rows = []
-    if path.exists():
-        with open(path) as fh:
-            rows = [r for r in csv.DictReader(fh) if r["nodes"] != base["nodes"]]
-    rows += [base, single]
-    rows.sort(key=lambda r: (int(str(r["nodes"]).split("^")[0]), r["precision"] != "double"))
-    with open(path, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=FIELDS, extrasaction="ignore")
-        writer.writeheader()
-        writer.writerows(rows)
+    rows = merge_csv(RESULTS / "precision.csv", [base, single], FIELDS, "nodes",
+                     sort=lambda r: (int(str(r["nodes"]).split("^")[0]), r["precision"] != "double"))
     shown = FIELDS[:-1]
     lines = ["# Single- against double-precision factorization inside the evolution", "",
              "Commands: " + ", ".join(sorted({f"`{r['command']}`" for r in rows})) + ".",
@@ -134,9 +124,7 @@ def main(argv=None):
              "One load step of `cases/indentation_full.toml` on the grid shown, from the main job's damage at"
              " the same load, irreversible against its damage at t - 0.05; tol 1e-3, the change stop."
              " Ratios are to double precision on the same grid, in the same invocation. `refinement_steps`:"
-             " CG steps of all the step's u-solves.", "",
-             "| " + " | ".join(shown) + " |", "|" + "---|" * len(shown)]
-    lines += ["| " + " | ".join(str(r[k]) for k in shown) + " |" for r in rows]
+             " CG steps of all the step's u-solves.", ""] + markdown_table(rows, shown)
     (RESULTS / "precision.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

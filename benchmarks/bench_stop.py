@@ -27,12 +27,12 @@ writes its log to ``--work`` (default ``/tmp/thinfilm_bench_stop/<scene>``) and 
 from __future__ import annotations
 
 import argparse
-import csv
 import pickle
 from pathlib import Path
 
 import numpy as np
 
+from benchmarks.tables import markdown_table, merge_csv
 from thinfilm.engine import evolution
 from thinfilm.engine.options import AltMinOptions
 from thinfilm.solvers.boxqp import kkt_residual
@@ -150,26 +150,14 @@ def main(argv=None):
         log = log_run(args.scene, work)
     runs = histories(log)
     rows = [dict(scene=name, **replay(runs, tol, e, k)) for e, k in GRID]
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    path = RESULTS / "stop.csv"
-    kept = []
-    if path.exists():
-        with open(path) as fh:
-            kept = [r for r in csv.DictReader(fh) if r["scene"] != name]
-    rows = kept + rows
-    with open(path, "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=FIELDS)
-        writer.writeheader()
-        writer.writerows(rows)
+    rows = merge_csv(RESULTS / "stop.csv", rows, FIELDS, "scene")
     lines = ["# The energy stop replayed on the change stop's histories", "",
              "Commands: `python -m benchmarks.bench_stop cases/<scene>.toml` for each scene below.", "",
              "Each scene ran with the change stop; the energy stop is replayed on every step's history"
              " (iterations: all alternate-minimization iterations of the run; `steps_stopped`: steps it"
              " ends early; the differences are to the change stop's final state of the same step:"
              " energy relative, damage max over the nodes). A real run with the energy stop starts each"
-             " step from its own state, so later steps differ a little more.", "",
-             "| " + " | ".join(FIELDS) + " |", "|" + "---|" * len(FIELDS)]
-    lines += ["| " + " | ".join(str(r[k]) for k in FIELDS) + " |" for r in rows]
+             " step from its own state, so later steps differ a little more.", ""] + markdown_table(rows, FIELDS)
     (RESULTS / "stop.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))
 

@@ -42,7 +42,7 @@ import numpy as np
 from thinfilm.engine.options import AltMinOptions, BacktrackOptions, EngineOptions, SearchOptions, StabilityOptions
 from thinfilm.engine.protocol import AffineLoad, DamageProjection, FractureModel, StabilityModes, TrialStates
 from thinfilm.engine.records import State, StepRecord
-from thinfilm.solvers.boxqp import kkt_residual, solve_box_qp
+from thinfilm.solvers.boxqp import solve_box_qp
 from thinfilm.solvers.errors import SolverError
 
 __all__ = ["Engine", "EvolutionError"]
@@ -156,14 +156,15 @@ class Engine:
     def _solve_alpha(self, u, t, alpha, lower, record, step, iteration):
         start = time.perf_counter()
         A, b = self.model.damage_problem(u, t)
-        # How far the pair (u, alpha) is from stationary: u minimizes E(., alpha) (up to the
-        # solver's tolerance), so only the damage's KKT conditions can fail (units of damage).
-        record.kkt = kkt_residual(A, b, alpha, lower, 1.0)
         try:
             result = solve_box_qp(A, b, lower, 1.0, a0=alpha, rtol=self.altmin.damage_rtol)
         except SolverError as err:
             raise EvolutionError(f"step {step} (t = {t:g}), alternate-minimization iteration {iteration}:"
                                  f" damage solver failed: {err}") from err
+        # How far the pair (u, alpha) is from stationary: u minimizes E(., alpha) (up to the
+        # solver's tolerance), so only the damage's KKT conditions can fail. The damage
+        # solver has measured it at its start point a0 = alpha (units of damage).
+        record.kkt = float(result.kkt_residuals[0])
         alpha = self._project(result.a)
         record.time_alpha += time.perf_counter() - start
         return alpha

@@ -413,11 +413,9 @@ class _PardisoBackend:
 
     name = "pardiso"
 
-    def __init__(self, pattern: _Pattern, precision="double"):
+    def __init__(self, pattern: _Pattern, precision="double"):  # "double" or "single", resolved by DirectSolver
         import pypardiso
 
-        if precision not in PRECISIONS[1:]:
-            raise ValueError(f"precision = {precision!r}; allowed: {PRECISIONS[1:]}")
         self._err = pypardiso.pardiso_wrapper.PyPardisoError
         self.ps = pypardiso.PyPardisoSolver(mtype=2)
         _reproducible(self.ps.libmkl)  # before PARDISO's first call: MKL fixes its branch then
