@@ -10,6 +10,7 @@
 * every relative link of the Markdown pages (``README.md``, ``docs/``, the studies' and the
   benchmarks' pages) leads to a file of the repository and, with an ``#anchor``, to a heading
   of it;
+* ``docs/README.md`` lists every page of ``docs/``;
 * the ``[solver]`` table of ``docs/scenes.md`` is the one the option declarations make
   (:func:`thinfilm.scene.solver_reference`), so a new option or a changed default cannot be
   left out of the reference.
@@ -171,6 +172,13 @@ def test_every_link_of_the_pages_exists():
                 broken.append(f"{page.relative_to(ROOT)}: {target}#{anchor}")
     assert links > 10
     assert not broken, "\n".join(broken)
+
+
+def test_the_docs_index_lists_every_page():
+    index = (ROOT / "docs" / "README.md").read_text(encoding="utf-8")
+    listed = set(re.findall(r"\]\(([\w-]+\.md)\)", index))
+    pages = {p.name for p in (ROOT / "docs").glob("*.md")} - {"README.md"}
+    assert listed == pages
 
 
 def _generated_table(page, marker):
