@@ -31,14 +31,14 @@ Kinds
     rate measured right after the last rebuild, and at once if a stale hierarchy fails to
     converge.
 ``"auto"``
-    ``"direct"`` unless the system is larger than the measured crossover (see
-    :data:`AUTO_AMG_MIN_UNKNOWNS` and ``benchmarks/results/usolve.md``).
+    ``"direct"`` unless the system is larger than the measured crossover
+    (:data:`AUTO_AMG_MIN_UNKNOWNS`; docs/solvers.md#direct-solvers).
 
 PARDISO on several threads does not sum in the same order twice (its parallel factorization
-schedules work dynamically): two runs of one scene then differ by round-off (5e-11 in alpha
-on a 200 x 40 strip). The direct solver turns on MKL's conditional numerical reproducibility
-before PARDISO's first call (:func:`pardiso_reproducible`), which makes them agree to the last
-bit (``docs/results.md#reproducibility``).
+schedules work dynamically): two runs of one scene then differ by round-off. The direct
+solver turns on MKL's conditional numerical reproducibility before PARDISO's first call
+(:func:`pardiso_reproducible`), which makes them agree to the last bit
+(docs/results.md#reproducibility).
 
 Every solve returns an :class:`SolveInfo`; a solve that does not reach its tolerance, or that
 produces a non-finite value, raises :class:`LinearSolverError`.
@@ -81,29 +81,24 @@ KINDS = ("auto", "direct", "amg")
 #: Precisions of the direct solver's factorization (:class:`DirectSolver`).
 PRECISIONS = ("auto", "double", "single")
 
-#: ``kind="auto"`` picks ``"amg"`` from this many unknowns on. Measured on 2 cores (see
-#: ``benchmarks/results/usolve.md``): PARDISO's refactorization beat the AMG re-solve (kept
-#: hierarchy, warm start) up to 1000^2 and the two were even at 1500^2 = 2.25e6 unknowns, where
-#: AMG needs 35% less memory; PARDISO's first solve (with analysis) stayed 2-4x faster. Beyond
-#: the largest measured size the O(N^1.5) factorization time and its memory favour AMG.
+#: ``kind="auto"`` picks ``"amg"`` from this many unknowns on: beyond the largest measured size
+#: the O(N^1.5) factorization time and its memory favour AMG (docs/solvers.md#direct-solvers).
 AUTO_AMG_MIN_UNKNOWNS = 1501 * 1501
-#: The same crossover when only scipy's SuperLU is available (no ``pypardiso``): SuperLU's
-#: refactorization beat the AMG re-solve at 250^2 and lost from 500^2 on.
+#: The same crossover when only scipy's SuperLU is available (no ``pypardiso``), measured
+#: (docs/solvers.md#direct-solvers).
 AUTO_AMG_MIN_UNKNOWNS_SUPERLU = 400 * 400
 #: ``precision="auto"`` factors in single precision (PARDISO only) from this many unknowns
-#: on. Measured (``benchmarks/results/usolve.md``, ``precision.md``): a re-solve took 0.60x
-#: (1000^2) and 0.89x (1500^2) of double precision's at rtol 1e-8, 0.51x and 0.71x at 1e-6,
-#: and 0.57x inside alternate minimization at 1000^2; below 10^6 unknowns the factorization
-#: is cheap, and double keeps every solve exact to round-off (and every result below that
-#: size unchanged).
+#: on; below, the factorization is cheap and double keeps every solve exact to round-off (and
+#: every result below that size unchanged). Measured: docs/solvers.md#reuse-across-iterations.
 AUTO_SINGLE_MIN_UNKNOWNS = 1000 * 1000
 
 DEFAULT_RTOL = 1e-8
-#: CG steps allowed to refine a single-precision solve (14 reached 1e-8 at 1500^2).
+#: CG steps allowed to refine a single-precision solve, a margin over the steps measured
+#: (docs/solvers.md#reuse-across-iterations).
 SINGLE_MAX_REFINE = 60
 #: A single-precision solve starts its refinement from ``x0`` if x0's relative residual is
-#: below this; the float32 solve itself leaves 0.5-1.4 on the cracked test plate at 1000^2
-#: and 1500^2.
+#: below this, well under what the float32 solve itself leaves
+#: (docs/solvers.md#reuse-across-iterations).
 SINGLE_START_RESIDUAL = 0.1
 
 
@@ -367,8 +362,8 @@ def pardiso_reproducible() -> int:
 
     Threaded PARDISO without CNR sums in an order that changes from one factorization to the
     next, so two runs of a scene differ at round-off. With CNR (branch AUTO) it gives the
-    same bits every time on one machine: measured the same on 1 and 2 threads, though MKL
-    promises it only for a fixed number of threads. MKL fixes its branch at its first
+    same bits every time on one machine, also on 1 and 2 threads (docs/speed.md#threads),
+    though MKL promises it only for a fixed number of threads. MKL fixes its branch at its first
     computation, so the solver turns CNR on (branch AUTO) when it loads MKL, before PARDISO's
     first call (:func:`pardiso_available`, the direct solver's backend); a branch the user
     chose with the environment variable ``MKL_CBWR`` is kept (``MKL_CBWR=``, empty, leaves CNR
@@ -389,24 +384,21 @@ class _PardisoBackend:
     """MKL PARDISO for real SPD matrices (``mtype = 2``), upper triangle in CSR.
 
     pypardiso's public ``factorize`` redoes the ordering and symbolic analysis (phase 12) on
-    every call: 3.7 s of the 10.6 s at 1000^2 and 12 s of the 47 s at 1500^2. Calling its
+    every call, a large share of its time (docs/solvers.md#direct-solvers). Calling its
     ``_call_pardiso`` with phase 11 once and phase 22 per update keeps the analysis.
 
     The analysis holds for the number of MKL threads it was made with: a numeric
-    factorization after ``mkl_set_num_threads`` changed it returned wrong solutions (relative
-    residual 2e-2 on a 6759-unknown L-panel, analysis on two threads and factorization on
-    one), and so did every later one. The analysis is therefore redone, on the fresh handle,
-    whenever the thread count differs from the analysis's (:mod:`thinfilm.threads` changes it
-    between load steps).
+    factorization after ``mkl_set_num_threads`` changed it returned wrong solutions, and so
+    did every later one (docs/speed.md#threads). The analysis is therefore redone, on the
+    fresh handle, whenever the thread count differs from the analysis's
+    (:mod:`thinfilm.threads` changes it between load steps).
 
     ``precision = "single"`` factors ``S K S`` in single precision (PARDISO's ``iparm(28)``),
     with ``S = diag(K)^(-1/2)`` so that the factored matrix has a unit diagonal whatever the
     damage; :meth:`solve` then returns ``S (S K S)^-1 S b`` in double, a solve accurate only
-    to ``kappa(K) eps_single`` (relative residual 0.5-1.4 on the cracked test plate at 1000^2
-    and 1500^2), which :class:`DirectSolver` refines by CG. The factor is half the size and
-    its computation 1.4-2x faster (``benchmarks/results/usolve.csv``: 3.4 s against 6.7 s at
-    1000^2, 11.5 s against 16.0 s at 1500^2). Every PARDISO parameter
-    is then set here (``iparm(1) = 1``; otherwise PARDISO overwrites all of them with its
+    to ``kappa(K) eps_single``, which :class:`DirectSolver` refines by CG. The factor is half
+    the size and faster to compute (docs/solvers.md#reuse-across-iterations). Every PARDISO
+    parameter is then set here (``iparm(1) = 1``; otherwise PARDISO overwrites all of them with its
     defaults, the single-precision flag included): the defaults of an SPD matrix, METIS
     ordering.
     """
@@ -581,11 +573,10 @@ class DirectSolver(_LinearSolver):
         or, in single precision, to refine the solve to ``rtol``.
     precision : {"auto", "double", "single"}
         Precision of the factorization. ``"single"`` (PARDISO only): half the factor's
-        memory and 1.4-2x less time per factorization; its solve is accurate to about one
-        digit and is refined to ``rtol`` by CG preconditioned by it (3-6 steps to 1e-8 from
-        the last solution on the cracked test plate at 1000^2 and 1500^2, 1-2 inside
-        alternate minimization), so a solve returns ``rtol``, not round-off. ``"auto"``:
-        single from :data:`AUTO_SINGLE_MIN_UNKNOWNS` unknowns with PARDISO, else double.
+        memory and less time per factorization; its solve is accurate to about one digit and
+        is refined to ``rtol`` by CG preconditioned by it, so a solve returns ``rtol``, not
+        round-off (measured: docs/solvers.md#reuse-across-iterations). ``"auto"``: single
+        from :data:`AUTO_SINGLE_MIN_UNKNOWNS` unknowns with PARDISO, else double.
     """
 
     def __init__(self, pattern, *, backend="auto", rtol=DEFAULT_RTOL, max_refine=20, precision="auto"):
@@ -603,7 +594,7 @@ class DirectSolver(_LinearSolver):
         if backend == "pardiso":
             self._backend = _PardisoBackend(self.pattern, precision)
             if precision == "single":
-                # refinement from a solve accurate to ~1 digit: 14 steps to 1e-8 at 1500^2
+                # refinement from a solve accurate to ~1 digit takes more steps than round-off's
                 max_refine = max(max_refine, SINGLE_MAX_REFINE)
         elif backend == "superlu":
             self._backend = _SuperLUBackend(self.pattern)
@@ -698,15 +689,10 @@ class DirectSolver(_LinearSolver):
 # AMG
 # --------------------------------------------------------------------------------------------
 
-#: Smoothed-aggregation settings chosen by measurement at 500^2 (cracked plate, lam = 31.6,
-#: rtol 1e-8; setup s / cold CG its / warm re-solve its after 5 cells of crack growth):
-#: symmetric strength theta = 0.08 with Jacobi-smoothed P: 2.7 / 67 / 39;
-#: the same with energy-minimizing P: 8.0 / 43 / 15 (chosen);
-#: evolution strength + energy P (pyamg's ``solver_configuration``): 40 / 23 / 14.
-#: Forward Gauss-Seidel before and backward after (a symmetric V-cycle, so still a valid CG
-#: preconditioner) instead of symmetric sweeps both times: 57 / 19 iterations but each half
-#: the smoothing work, re-solve 1.4-1.7 s instead of 2.1-2.6 s.
-#: The smoothers must not cache anything derived from the level matrix, since the finest
+#: Smoothed-aggregation settings, chosen by measurement at 500^2
+#: (docs/solvers.md#amg-and-the-near-nullspace): symmetric strength, energy-minimizing
+#: prolongation, forward Gauss-Seidel before and backward after (a symmetric V-cycle, so still
+#: a valid CG preconditioner). The smoothers must not cache anything derived from the level matrix, since the finest
 #: level's matrix is replaced on update: point Gauss-Seidel qualifies, ``block_gauss_seidel``
 #: (caches inverted diagonal blocks) and ``jacobi`` (caches a spectral radius) do not.
 AMG_DEFAULTS = dict(
@@ -799,8 +785,8 @@ class AMGSolver(_LinearSolver):
         aggregate whose nodes are collinear gives P a zero column and A_c a zero row. Those
         rows are dropped and the rest factored by Cholesky, with a relative diagonal shift of
         1e-12 if round-off (tiny k_res) makes it fail; a matrix that is still not positive
-        definite gets an LU (CG will then report the breakdown). No eigendecomposition: a
-        dense ``eigh`` of 1000 unknowns took 4-8 s with threaded OpenBLAS on the 2-core machine.
+        definite gets an LU (CG will then report the breakdown). No eigendecomposition: it is
+        far slower (docs/solvers.md#amg-and-the-near-nullspace).
         """
         import scipy.linalg as sla
 
