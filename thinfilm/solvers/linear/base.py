@@ -156,6 +156,17 @@ def backward_error(K, f, u):
 
     The smallest relative perturbation of ``K`` and ``f`` of which ``u`` is the exact
     solution (Rigal-Gaches); round-off makes it a few ``eps`` at best.
+
+    Parameters
+    ----------
+    K : scipy.sparse matrix, shape (n, n)
+    f : ndarray, shape (n,)
+    u : ndarray, shape (n,)
+
+    Returns
+    -------
+    float
+        Dimensionless.
     """
     norm_K = float(abs(K).sum(axis=1).max())
     r = f - K @ u
@@ -182,11 +193,38 @@ def check_rhs(f, n):
 def pcg(K, f, apply_M, x0, rtol, maxiter, kind):
     """Preconditioned CG on ``K u = f`` to ``||f - K u|| <= rtol ||f||``.
 
-    Returns ``(u, iterations, relres, relres0)`` with ``relres0`` the relative residual of the
-    start. Raises :class:`LinearSolverError` on a non-finite value or a CG breakdown (``p.Kp``
-    or ``r.z`` not positive: K or the preconditioner is not SPD numerically). Hitting
-    ``maxiter`` is *not* raised here (the caller may rebuild and retry); it is reported through
-    ``relres > rtol``.
+    Parameters
+    ----------
+    K : scipy.sparse matrix, shape (n, n)
+        Symmetric positive definite.
+    f : ndarray, shape (n,)
+        Not zero.
+    apply_M : callable
+        ``apply_M(r) -> z``, shape (n,) to (n,): the SPD preconditioner.
+    x0 : ndarray, shape (n,), or None
+        Start (None: zero).
+    rtol : float
+        Relative residual to reach.
+    maxiter : int
+        CG iterations at most.
+    kind : str
+        The solver kind named in an error.
+
+    Returns
+    -------
+    u : ndarray, shape (n,)
+    iterations : int
+    relres : float
+        True relative residual of ``u``; above ``rtol`` when ``maxiter`` was hit, which is
+        *not* raised here (the caller may rebuild and retry).
+    relres0 : float
+        Relative residual of the start.
+
+    Raises
+    ------
+    LinearSolverError
+        On a non-finite value or a CG breakdown (``p.Kp`` or ``r.z`` not positive: K or the
+        preconditioner is not SPD numerically).
     """
     normf = np.linalg.norm(f)
     x = np.zeros_like(f) if x0 is None else np.array(x0, dtype=np.float64, copy=True)
