@@ -20,8 +20,8 @@ symmetry group) and ``S + 1`` load steps::
 
 The constants were measured with ``tracemalloc`` over whole runs
 (docs/speed.md#memory-and-time-estimates); the whole is checked against measured runs in
-``docs/scenes.md#sizes`` and ``tests/core/test_refusals.py``. A run's time depends on its iterations, which the scene does
-not tell, so only its memory is estimated.
+``docs/scenes.md#sizes`` and ``tests/core/test_refusals.py``. A run's time depends on its
+iterations, which the scene does not tell, so only its memory is estimated.
 """
 
 from __future__ import annotations
