@@ -9,7 +9,7 @@ The undamaged strain-energy density splits into a volumetric and a deviatoric pa
 ``d`` the dimension (2D: in-plane trace and deviator, with the plane-stress ``lam*`` where the
 model is plane stress, so ``kappa = lam* + mu``). A split writes the density as
 ``psi = g psi_plus + psi_minus``: the degradation ``g`` acts on ``psi_plus`` only, which alone
-drives the damage (docs/model.md#unilateral-contact):
+drives the damage (docs/model.md#unilateral-contact-splits):
 
 =============  ======  ============================================  =======================
 ``split``      eq.     ``psi_plus``                                   ``psi_minus``

@@ -4,15 +4,17 @@ rate (4.2), Fuller's correction (4.3)-(4.4) and the load at which G reaches Gc.
 Each of the specimen's two arms (width W/2, thickness T, on either side of the crack) is a bar
 twisted over the crack length a by the torque of the load P/2 about the moment arm ``Wm``. A
 bar of width b and thickness T has the torsion constant ``b T^3 / 3`` (thin strip), so the
-load-point compliance is ``C(a) = 6 Wm^2 (1 + nu) a / (W T^3 E)`` (FEM_MODEL 6.2: the printed
-(4.1) lacks the factor a; with it, ``G = P^2 / (2 T) dC/da`` is (4.2)).
+load-point compliance is ``C(a) = 6 Wm^2 (1 + nu) a / (W T^3 E)`` (the printed (4.1) lacks the
+factor a; with it, ``G = P^2 / (2 T) dC/da`` is (4.2);
+docs/model.md#where-the-dissertation-is-wrong-or-ambiguous).
 
 Fuller's correction, ``C_F = C / psi`` and ``G_F = G / psi``, with
 ``psi(tau) = 1 - 0.6302 tau + 1.2 tau exp(-pi / tau)``, accounts for the finite thickness of
 the arms (0.6302 = 192 / pi^5 is the Saint-Venant term of a rectangle's torsion constant). The
 dissertation prints ``tau = T/W``; each arm is W/2 wide, so the rectangle's thickness over width
 is ``tau = 2T/W``, which also matches the printed validity condition ``2T/W <= 1``. Both
-readings are here, ``"2T/W"`` the default (FEM_MODEL 6.2 and section 7 item 16).
+readings are here, ``"2T/W"`` the default
+(docs/model.md#where-the-dissertation-is-wrong-or-ambiguous).
 
 ``load_offset`` (not in the dissertation): with the loading points at a distance ``l`` from the
 mid-line instead of on it, the moment arm of each torsion bar is ``Wm - l``, and every formula

@@ -8,7 +8,8 @@ minutes with a ``MemoryError`` or running for years. Each kind reckons its own n
 steps (:mod:`thinfilm.plate.resources`), the exact 1D film from its cells and steps
 (:mod:`thinfilm.exact1d.resources`); a kind driven by the engine whose size is only known once
 it is built (a mesh) from its steps alone (:func:`steps_estimate`). The byte counts are those
-of what the code allocates, measured on runs of moderate size (``docs/scenes.md#sizes``).
+of what the code allocates, measured on runs of moderate size
+(docs/speed.md#memory-and-time-estimates; against whole runs: docs/scenes.md#sizes).
 
 The memory limit is the machine's available memory (``MemAvailable`` of ``/proc/meminfo``,
 else the free pages); it cannot be lifted. The time limit (:data:`TIME_LIMIT`) is there to
@@ -27,15 +28,14 @@ __all__ = ["Size", "Estimate", "TIME_LIMIT", "BASE_BYTES", "STEP_BYTES", "availa
 TIME_LIMIT = 3600.0
 
 #: Memory of a run whatever its size (bytes): the interpreter with numpy, scipy, numba, h5py,
-#: matplotlib and MKL loaded, and the figures drawn at the end (288 MB: the peak resident
-#: memory of ``thinfilm run`` on a 1D film of 20 cells).
+#: matplotlib and MKL loaded, and the figures drawn at the end (measured:
+#: docs/speed.md#memory-and-time-estimates).
 BASE_BYTES = 300e6
 
 #: Memory per load step of a run driven by the engine, besides its fields (bytes): the figures
 #: of the per-step curves drawn at the end (one line point, and the film's one crack marker,
-#: per step: 19 kB per step measured on a 1D film, 9 kB on a 2D one), which outweigh the
-#: engine's records kept during the run (1.1-1.3 kB per step: the StepRecord, the State and its
-#: energy history).
+#: per step), which outweigh the engine's records kept during the run (the StepRecord, the
+#: State and its energy history). Measured: docs/speed.md#memory-and-time-estimates.
 STEP_BYTES = 20e3
 
 

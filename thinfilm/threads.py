@@ -22,9 +22,9 @@ What this module does:
   system that pins one thread per job keeps it;
 * ``threads = N``: N threads, whatever the machine does;
 * OpenBLAS always runs on one thread: its threads change the order of its sums, and so the
-  last bits of a run's results (measured: 3.6e-12 in alpha on an 80 x 80 indentation with the
-  AMG solver, whose coarsest level OpenBLAS factorizes), while its matrices are too small for
-  a second thread to pay. MKL PARDISO (with conditional numerical reproducibility,
+  last bits of a run's results (with the AMG solver, whose coarsest level OpenBLAS factorizes;
+  measured: docs/speed.md#threads), while its matrices are too small for a second thread to
+  pay. MKL PARDISO (with conditional numerical reproducibility,
   :func:`thinfilm.solvers.linear.pardiso_reproducible`) and the Numba kernels (no reduction
   across threads) give the same bits on any number of threads, so the choice, fixed or
   automatic, never changes a result: ``tests/core/test_threads.py`` checks it.

@@ -1,4 +1,4 @@
-"""The correction-factor scan (the dissertation's Figs. 4.12 and 4.13, FEM_MODEL 6.6-6.7): the
+"""The correction-factor scan (the dissertation's section 4.6, Figs. 4.12 and 4.13): the
 energy release rate and the correction factor psi(a) of the eight non-dimensional
 double-torsion plates of ``cases/scans/double_torsion_correction.toml``.
 

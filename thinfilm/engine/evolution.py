@@ -286,10 +286,8 @@ class Engine:
         Why all three: a slow, steady settling tail passes them, but so would, for a few
         iterations, a state creeping past a saddle, where the energy barely moves before a
         crack grows. There the decreases grow again (``q >= 1``) and the change of alpha
-        rises, but only after many iterations near the saddle (50 on the main job at t = 0.7,
-        at 1e-10 of the energy each, every node within 1e-4 of its optimum), which no window
-        covers: the energy stop ended that step before its crack grew
-        (``benchmarks/results/stop.md``), and it is therefore not the default.
+        rises, but only after more iterations near the saddle than any window covers, so the
+        stop is not the default (measured: docs/speed.md#full-resolution-levers).
         """
         opts = self.altmin
         n = SETTLED_WINDOW
@@ -323,25 +321,22 @@ class Engine:
         - a damage mode growing through its instability: the change grows and the update
           keeps its shape (cosine with the last one above ``MODE_COSINE``); cap ``omega``;
         - a crack front crossing the film (anything else): cap ``omega_front`` (2). A larger
-          factor there can land one node off the crack's place (on the Fig. 2.7 strip with
-          600 x 120 cells, cap 4 left a segment one node off that took 700 iterations to
-          creep back; cap 2 does not).
+          factor there can land one node off the crack's place, which plain alternate
+          minimization takes hundreds of iterations to undo.
 
         Only the growth of damage is extrapolated, ``alpha* + (omega - 1) max(alpha* - alpha,
-        0)``, and no node is moved more than half-way from ``alpha*`` to 1. Both limits were
-        measured necessary: extrapolating where damage recedes left half-healed bands that
-        took hundreds of iterations to settle (Fig. 2.7 strip), and letting the
-        extrapolation reach 1 locked in wide fully broken bands whose energy is 4% too high
-        (1D film).
+        0)``, and no node is moved more than half-way from ``alpha*`` to 1: extrapolating
+        where damage recedes leaves half-healed bands, and reaching 1 locks in fully broken
+        bands of too high an energy. The caps and both limits were chosen by measurement
+        (docs/speed.md#acceleration).
 
         Below ``10 tol`` (the tail of a step, where a settling crack band drifts by a node or
-        two), alternate minimization converges linearly: on the indentation scene at 640^2
-        the change of alpha shrank by 4-5% per iteration over 30 iterations, the updates all
-        of one shape. When the last three changes decrease, by a ratio ``rho > 1/2``, and the
-        last two updates have a cosine above ``MODE_COSINE``, the remaining path is summed
-        as a geometric series (Aitken): ``alpha* + (omega - 1) (alpha* - alpha)`` with
-        ``omega = 1 / (1 - rho)`` capped at ``omega_tail``, both signs (the band moves). It
-        halved that step (42 -> 21 iterations) and ended at a lower energy.
+        two), alternate minimization converges linearly, the updates all of one shape. When
+        the last three changes decrease, by a ratio ``rho > 1/2``, and the last two updates
+        have a cosine above ``MODE_COSINE``, the remaining path is summed as a geometric
+        series (Aitken): ``alpha* + (omega - 1) (alpha* - alpha)`` with ``omega = 1 / (1 -
+        rho)`` capped at ``omega_tail``, both signs (the band moves); measured:
+        docs/speed.md#tail-extrapolation.
         """
         opts = self.altmin
         if opts.acceleration != "overrelax" or len(changes) < 2:

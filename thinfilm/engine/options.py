@@ -49,9 +49,8 @@ class AltMinOptions:
         ``"overrelax"``: the growth of damage is extrapolated (see ``omega``), and so is the
         linear settling tail of a step (see ``omega_tail``); each extrapolation is projected on
         the bounds and kept only if the energy after the next u-solve is below that of the
-        plain update it replaces. Anderson acceleration of the same fixed-point map was
-        measured and dropped: on the Fig. 2.7 strip it took more iterations than plain
-        alternate minimization (173 against 124 in the nucleation step).
+        plain update it replaces (chosen over Anderson acceleration by measurement:
+        docs/speed.md#acceleration).
     omega : float
         With ``acceleration = "overrelax"``: the largest over-relaxation factor (>= 1) of the
         damage growth, ``alpha <- alpha* + (omega_k - 1) max(alpha* - alpha, 0)`` with
@@ -61,9 +60,7 @@ class AltMinOptions:
         film (see :meth:`thinfilm.engine.evolution.Engine._extrapolate`); it falls back to 1
         when the phase ends, and after a rejected extrapolation its cap is lowered to the last
         accepted factor until the phase ends (1 = plain alternate minimization). The default,
-        4, halves the iterations of the Fig. 2.7 strip's nucleation step on 300 x 60 to
-        600 x 120 grids (``benchmarks/results/acceleration.md``); 8 saves a few more there but
-        splits the first crack of the 1D Fig. 2.5 film (800 cells, no search) in two.
+        4, was chosen by measurement (docs/speed.md#acceleration).
     omega_front : float
         The cap of ``omega_k`` in a front-crossing phase (>= 1).
     omega_tail : float

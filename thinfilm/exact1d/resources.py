@@ -6,23 +6,19 @@ With ``m`` cells and ``S + 1`` load steps::
     seconds >= passes m^2/2 PASS_SECONDS + (S + 1) STEP_SECONDS
 
 * ``CELL_BYTES``: the fragment coefficients ``k h + F(k h)`` of both tracks (cached per fragment
-  size) and the two work arrays of each pass of Algorithm 2.1 (:mod:`onedim.dynprog`), float64;
-  135-140 B per cell measured with ``tracemalloc`` at 1000 to 4000 cells.
+  size) and the two work arrays of each pass of Algorithm 2.1 (:mod:`onedim.dynprog`), float64.
 * ``STEP_BYTES``: each step's energies and crack positions in both tracks (Python floats and
-  tuples), then their arrays, the results file and the curves of the figures: 434-445 B per
-  step allocated (``tracemalloc``, 5000 to 100,000 steps), 610 B of the process's resident
-  memory (100,000 steps against 3: small Python objects come with the allocator's overhead).
-* A pass of Algorithm 2.1 over the whole film costs ``m^2/2`` inner iterations, 0.9 ns each
-  (measured at 20,000 cells). Each track makes at least one (is the film cracked by
-  ``t_max``?), and if it cracks, the bisection of the first event's load to a relative
-  ``1e-13`` makes at least 45 (``log2(1e13) = 43`` halvings, the two ends and the optimal cuts):
-  a lower bound, since the fragments born later cost more passes (1.2-1.7 s measured at 4000
-  cells, 0.65 s estimated). The film surely cracks by ``t_max`` if one crack at its middle
-  node beats it uncut there (:func:`onedim.partition.nucleation_load`).
-* ``STEP_SECONDS``: advancing both tracks to a step and recording it, 0.20-0.23 ms measured
-  (10,000 and 100,000 steps).
+  tuples), then their arrays, the results file and the curves of the figures, with the
+  allocator's overhead on small Python objects.
+* A pass of Algorithm 2.1 over the whole film costs ``m^2/2`` inner iterations,
+  ``PASS_SECONDS`` each. Each track makes at least one (is the film cracked by ``t_max``?),
+  and if it cracks, the bisection of the first event's load to a relative ``1e-13`` makes at
+  least 45 (``log2(1e13) = 43`` halvings, the two ends and the optimal cuts): a lower bound,
+  since the fragments born later cost more passes. The film surely cracks by ``t_max`` if one
+  crack at its middle node beats it uncut there (:func:`onedim.partition.nucleation_load`).
+* ``STEP_SECONDS``: advancing both tracks to a step and recording it.
 
-The measurements were made on a 2-core machine shared with another computation.
+The constants were measured on runs of moderate size (docs/speed.md#memory-and-time-estimates).
 """
 
 from __future__ import annotations

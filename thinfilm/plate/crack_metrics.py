@@ -42,9 +42,8 @@ __all__ = ["CrackMetrics", "FIELD_BUDGET", "branch_radius", "energy_length", "me
            "measured_steps"]
 
 #: Node-steps (nodes times finished steps) up to which every step is measured; a larger run
-#: is measured at its snapshot steps and its last. A cracked step takes up to about 0.5 s per
-#: 10^5 nodes, half of it finding branch points (``cases/indentation.toml``, 321^2 nodes and
-#: 21 steps: 7 s), so the budget bounds the measurement to some 20 s.
+#: is measured at its snapshot steps and its last. The budget bounds the reading to some 20 s
+#: (the cost of a step: docs/speed.md#crack-metrics).
 FIELD_BUDGET = 4_000_000
 
 

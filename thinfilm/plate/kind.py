@@ -59,10 +59,9 @@ def resolution_warnings(scene):
 
     The damage band has width ``~ 4 eta``; the plate's response decays over ``1/lam`` and
     cracks of the exact 1D solution are at least ``~ 3/lam`` apart, so ``eta lam`` well below
-    1 is needed (``docs/solvers.md#regularized-model-on-the-strip``: ``eta lam = 0.53`` goes
-    diffuse on the Fig. 2.7 strip, 0.26 resolves it). An indenter whose contact disk comes
-    within a few decay lengths of a free edge feels the edge (and would better be run on a
-    larger domain).
+    1 is needed (measured on the Fig. 2.7 strip: docs/solvers.md#regularized-model-on-the-strip).
+    An indenter whose contact disk comes within a few decay lengths of a free edge feels the
+    edge (and would better be run on a larger domain).
     """
     m, dom = scene.model, scene.domain
     out = []

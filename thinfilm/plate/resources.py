@@ -10,31 +10,18 @@ symmetry group) and ``S + 1`` load steps::
   13 (2D) entries per row, the damage operator's three matrices of 3 or 5, the solver's copy
   of the pattern and upper triangle) and of the engine's working fields during alternate
   minimization; with AMG, its hierarchy (3 near-nullspace vectors, rebuilt now and then).
-  Measured with ``tracemalloc`` over whole runs (setup, evolution, figures):
-
-  ================  ===========  ==========================================================
-  grid, solver      bytes/node   measured
-  ================  ===========  ==========================================================
-  1D, direct        530          529 (4001 nodes, the evolution's peak); 433 (model build)
-  2D, direct        830          823-825 (101^2 to 801^2 nodes, the model build's peak)
-  1D, AMG           1450         1452 (4001 nodes)
-  2D, AMG           4100         2824 (301^2 nodes, no damage), 4099 (201^2, with cracks;
-                                 3800 of resident memory at 321^2)
-  ================  ===========  ==========================================================
-
 * ``factor_bytes``: PARDISO's own memory (its ``iparm(16) + iparm(17)``: permanent memory and
-  factors), outside Python's heap: 370 B per unknown in 1D (367-382 from 1e4 to 1e6
-  unknowns); ``100 log2(n) - 112`` B per unknown in 2D, nested dissection's ``n log n`` fill
-  (1206, 1389, 1576 and 1817 B measured at 101^2, 201^2, 401^2 and 801^2 nodes; the formula
-  gives 1220, 1419, 1619 and 1817). A single-precision factorization (``[solver] precision``)
-  holds half of it.
+  factors), outside Python's heap: 370 B per unknown in 1D; ``100 log2(n) - 112`` B per
+  unknown in 2D, nested dissection's ``n log n`` fill. A single-precision factorization
+  (``[solver] precision``) holds half of it.
 * ``16 N`` per step: ``u`` and ``alpha`` of every finished step, which the engine keeps until
   the evolution ends (backtracking may return to any of them); ``STEP_BYTES``
   (:mod:`thinfilm.resources`): the step's records and its share of the figures.
 
-The whole is checked against measured runs in ``docs/scenes.md#sizes`` and
-``tests/core/test_refusals.py``. A run's time depends on its iterations, which the scene does
-not tell, so only its memory is estimated.
+The constants were measured with ``tracemalloc`` over whole runs
+(docs/speed.md#memory-and-time-estimates); the whole is checked against measured runs in
+``docs/scenes.md#sizes`` and ``tests/core/test_refusals.py``. A run's time depends on its
+iterations, which the scene does not tell, so only its memory is estimated.
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ per orbit.
   (it is unique) when K and f are invariant, i.e. when alpha and the load are. With the
   dihedral group of the square (8 elements) the system has 1/8 of the unknowns, and a
   nested-dissection factorization, whose cost grows like ``n^1.5``, about 8^1.5 = 23x
-  cheaper (measured: 15-20x at 1500^2 nodes, ``benchmarks/bench_symmetry.py``).
+  cheaper (measured: docs/speed.md#the-plate-solvers-2d-grids-2-cores).
 * The alpha-problem is convex: its minimizer is invariant when u and the bounds are, and
   the orbit average of an approximate minimizer is feasible and no worse (Jensen). The
   averaging (:meth:`GridSymmetry.average`) keeps the rounding of the damage solver from

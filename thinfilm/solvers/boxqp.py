@@ -118,9 +118,8 @@ _GRADIENT_BACKTRACKS = 30
 _LINEAR_TOL_FRACTION = 0.25
 # Inexact Newton: in a step that changes the active set (some node leaves or reaches a
 # bound), the set is likely to change again and an exact reduced solve is wasted, so
-# CG stops at max(0.25 rtol, _FORCING * current KKT residual). Measured on AT1 warm
-# starts at 1000^2: 0.01 cuts the CG iterations by 40% for at most one extra step;
-# 0.1 saves a little more CG but adds 2-3 steps.
+# CG stops at max(0.25 rtol, _FORCING * current KKT residual). The value was chosen by
+# measurement (docs/solvers.md#damage-problem).
 _FORCING = 0.01
 
 
@@ -305,13 +304,11 @@ def solve_box_qp(
         if CG has not converged after ``cg_max_iter`` iterations), or a
         :data:`ReducedSolver`.
     direct_max_free : int, default 2000
-        Free-set size up to which ``"auto"`` solves directly; >= 0. (On the AT1 free
-        sets of 2D grids, CG to the tolerance was 2.5-4x faster than SuperLU from
-        650 to 38000 free nodes; direct stays the default for small sets, where it
-        costs well under a millisecond, and as the fallback.)
+        Free-set size up to which ``"auto"`` solves directly; >= 0. (Chosen by
+        measurement: docs/solvers.md#damage-problem.)
     cg_max_iter : int, default 1000
-        CG iteration limit per reduced solve; >= 1. (Jacobi-CG needed 30-130
-        iterations on the AT1 and AT2 problems of the benchmark.)
+        CG iteration limit per reduced solve; >= 1. (A wide margin over the iterations
+        measured: docs/solvers.md#damage-problem.)
     raise_on_failure : bool, default True
         Raise :class:`DamageSolverError` if not converged; otherwise return the last
         iterate with ``converged=False``.

@@ -296,8 +296,8 @@ def interior_row_2d(g, p, i, j, n1, nx, hx, hy, nu, winkler, data, pos):
     """The 13 entries of an interior 2D row, written to ``data[pos:pos + 13]`` in pattern order.
 
     Equal to :func:`plate_row` for such rows (the node terms are all ``a^2 + b^2 + 2 nu a b``
-    with weight ``hx hy``, the four cells exist), written out to avoid its generic loops:
-    the general form costs about 10x more per row.
+    with weight ``hx hy``, the four cells exist), written out to avoid its generic loops,
+    which cost more (docs/speed.md#the-plate-solvers-2d-grids-2-cores).
     """
     rx = 1.0 / (hx * hx)
     ry = 1.0 / (hy * hy)
