@@ -70,7 +70,7 @@ def build_model(scene, mesh):
     SceneError
         If a group the scene names is not in the mesh.
     """
-    from fem3d.damage import DamageOperator
+    from fem3d.damage import P1Damage
     from fem3d.elasticity import Elasticity
     from fem3d.model import FemModel, Loads
     from thinfilm.solvers.linear import make_solver
@@ -102,7 +102,7 @@ def build_model(scene, mesh):
         element, extra = QuadraticElasticity, {"space": space}
     elasticity = element(mesh, m.E, m.nu, plane=m.plane if m.dim == 2 else "stress", thickness=m.thickness,
                          k_res=m.k_res, constrained=loads.constrained, modulus=modulus, split=m.split, **extra)
-    damage = DamageOperator(mesh, m.Gc, m.eps, at=m.at, thickness=m.thickness, fixed_nodes=fixed_nodes)
+    damage = P1Damage(mesh, m.Gc, m.eps, at=m.at, thickness=m.thickness, fixed_nodes=fixed_nodes)
     K = elasticity.matrix(np.zeros(mesh.n_nodes))
     kind = scene.solver.linear
     if kind == "auto":

@@ -158,7 +158,7 @@ class FemModel:
     mesh : Mesh
     elasticity : fem3d.elasticity.Elasticity or fem3d.quadratic_elasticity.QuadraticElasticity
         Built with the loads' constrained dofs.
-    damage : fem3d.damage.DamageOperator
+    damage : fem3d.damage.P1Damage
     loads : Loads
     linear_solver : object
         A solver of :mod:`thinfilm.solvers.linear` made for ``elasticity.matrix``'s pattern.
@@ -179,7 +179,7 @@ class FemModel:
         self.proportional = loads.proportional
         self.linear_solver = linear_solver
         self.n_alpha = mesh.n_nodes
-        self.toughness = float(damage.Gc * damage.thickness)
+        self.toughness = float(damage.toughness * damage.thickness)
         self.last_solve_info = None
         #: With a split: the number of cells whose switch changed after each linear solve,
         #: appended by every u-solve (the run reads and clears it after each step).
@@ -251,7 +251,9 @@ class FemModel:
         return best
 
     def damage_problem(self, u, t):
-        return self.damage.problem(self.elasticity.nodal_energy(u))
+        # the damage operator's nodal energy e has P = 1/2 sum e_i g_i, the elasticity's c has
+        # P = sum c_i g_i (docs/model.md#the-discrete-damage-problem): e = 2 c, exact
+        return self.damage.problem(2.0 * self.elasticity.nodal_energy(u))
 
     def energies(self, u, alpha, t):
         work = float(self.loads.force_at(t) @ u)

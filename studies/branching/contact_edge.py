@@ -40,7 +40,7 @@ from scipy.signal import argrelextrema
 from studies.branching.scenes import ETA, RESULTS, grid_overrides, load_case
 from thinfilm.plate.kind import build_grid, make_model
 from thinfilm.plate.loads import contact_radius
-from thinfilm.plate.operators import c_m
+from thinfilm.damage import c_m
 
 CASES = ("G07", "G15", "G20")  # the Fig. 2.14 cases, in the seeds study's order
 ETAS = (ETA, 0.005)  # the _fine case files' 0.0033, the coarse case files' 0.005

@@ -51,7 +51,7 @@ import numpy as np
 from thinfilm.plate.energy import bending_density, nodal_energy
 from thinfilm.plate.grid import Grid
 from thinfilm.plate.model import crack_profile
-from thinfilm.plate.operators import DamageOperator, PlateOperator
+from thinfilm.plate.operators import GridDamage, PlateOperator
 from thinfilm.solvers.linear import make_solver
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -98,7 +98,7 @@ def release_per_length(ratio):
     grid = Grid.rectangle(-HALF_WIDTH, HALF_WIDTH, n, -HALF_WIDTH, HALF_WIDTH, n)
     x, y = (c.ravel() for c in grid.coordinates)
     plate = PlateOperator(grid, NU, WINKLER, K_RES)
-    damage = DamageOperator(grid, ETA, TOUGHNESS, 1)
+    damage = GridDamage(grid, ETA, TOUGHNESS, 1)
     disk = x**2 + y**2 < DISK_RADIUS**2
     zero = np.zeros(grid.n_nodes)
     # K(0) is the same for every band: factored once (on a copy, since the plate operator

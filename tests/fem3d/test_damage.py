@@ -1,6 +1,7 @@
-"""The AT damage operator on P1 (:mod:`fem3d.damage`): the Laplacian and lumped measure against
-scikit-fem, the damage problem against a direct evaluation of the energy, fixed nodes, the AT1
-onset stress, and the surface energy of a crack against its closed form on structured meshes.
+"""The AT damage operator on P1 (:mod:`fem3d.damage` on :mod:`thinfilm.damage`): the Laplacian
+and lumped measure against scikit-fem, the damage problem against a direct evaluation of the
+energy, fixed nodes, the AT1 onset stress, and the surface energy of a crack against its
+closed form on structured meshes.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import skfem
 from skfem.models.poisson import laplace, mass
 
 from fem3d import kernels
-from fem3d.damage import DamageOperator
+from fem3d.damage import P1Damage
 from fem3d.elasticity import Elasticity
 from tests.fem3d.test_elasticity import fitted_order, rel_diff, small_mesh, solve, to_skfem, tri_mesh
 from thinfilm.solvers.boxqp import solve_box_qp
@@ -23,16 +24,17 @@ E, NU = 3.0, 0.3
 
 @pytest.mark.parametrize("dim", [2, 3])
 def test_laplacian_and_lumped_measure(dim):
-    """``L`` is scikit-fem's P1 Laplacian, ``m`` the row sums of its P1 mass matrix; the kernels
-    agree with their references."""
+    """``L`` is scikit-fem's P1 Laplacian, ``omega`` the row sums of its P1 mass matrix; the
+    kernels agree with their references."""
     mesh = small_mesh(dim)
-    op = DamageOperator(mesh, 1.0, 0.1)
+    op = P1Damage(mesh, 1.0, 0.1)
     basis = skfem.Basis(to_skfem(mesh), skfem.ElementTriP1() if dim == 2 else skfem.ElementTetP1())
     assert rel_diff(op.L, skfem.asm(laplace, basis)) < 1e-12
-    np.testing.assert_allclose(op.m, np.asarray(skfem.asm(mass, basis).sum(axis=1)).ravel(), rtol=1e-13)
+    np.testing.assert_allclose(op.omega, np.asarray(skfem.asm(mass, basis).sum(axis=1)).ravel(), rtol=1e-13)
     grads, measure = kernels.cell_geometry(mesh.points, mesh.cells)
     assert rel_diff(op.L, kernels.laplacian_reference(grads, measure, mesh.cells, mesh.n_nodes)) < 1e-14
-    np.testing.assert_allclose(op.m, kernels.lumped_measure_reference(measure, mesh.cells, mesh.n_nodes), rtol=1e-14)
+    np.testing.assert_allclose(op.omega, kernels.lumped_measure_reference(measure, mesh.cells, mesh.n_nodes),
+                               rtol=1e-14)
     assert op.L.has_sorted_indices and abs(op.L - op.L.T).max() == 0.0
     assert np.abs(op.L @ np.ones(mesh.n_nodes)).max() < 1e-13 * abs(op.L).max()
 
@@ -47,10 +49,10 @@ def test_problem_is_the_energy(dim, at):
     rng = np.random.default_rng(7)
     fixed = np.sort(rng.choice(mesh.n_nodes, size=mesh.n_nodes // 5, replace=False))
     el = Elasticity(mesh, E, NU, thickness=T, k_res=1e-3)
-    op = DamageOperator(mesh, 0.7, 0.15, at=at, thickness=T, fixed_nodes=fixed)
+    op = P1Damage(mesh, 0.7, 0.15, at=at, thickness=T, fixed_nodes=fixed)
     u = rng.standard_normal(el.n_dofs)
     c = el.nodal_energy(u)
-    A, b = op.problem(c)
+    A, b = op.problem(2.0 * c)  # the damage problem's nodal energy e = 2 c
 
     def energy(a):
         return el.elastic_energy(u, a) + op.surface_energy(a)
@@ -64,7 +66,7 @@ def test_problem_is_the_energy(dim, at):
     # the surface energy's closed form pieces
     a = rng.random(mesh.n_nodes)
     cs = 0.7 / (4.0 * (2.0 / 3.0 if at == 1 else 0.5))
-    assert op.surface_energy(a) == pytest.approx(cs * T * (op.m @ a**at / 0.15 + 0.15 * a @ (op.L @ a)), rel=1e-14)
+    assert op.surface_energy(a) == pytest.approx(cs * T * (op.omega @ a**at / 0.15 + 0.15 * a @ (op.L @ a)), rel=1e-14)
     # the same object, rewritten, at the next call
     A2, _ = op.problem(2.0 * c)
     assert A2 is A
@@ -73,9 +75,9 @@ def test_problem_is_the_energy(dim, at):
 def test_fixed_nodes_are_decoupled_and_held_at_zero():
     mesh = small_mesh(2)
     fixed = np.arange(0, mesh.n_nodes, 4)
-    op = DamageOperator(mesh, 1.0, 0.2, fixed_nodes=fixed)
+    op = P1Damage(mesh, 1.0, 0.2, fixed_nodes=fixed)
     c = np.full(mesh.n_nodes, 50.0)  # far above the damage threshold everywhere
-    A, b = op.problem(c)
+    A, b = op.problem(2.0 * c)
     for i in fixed:
         row = A.getrow(i)
         assert row.nnz == 1 and row.indices[0] == i and row.data[0] == 1.0
@@ -87,9 +89,9 @@ def test_fixed_nodes_are_decoupled_and_held_at_zero():
     free = np.setdiff1d(np.arange(mesh.n_nodes), fixed)
     assert np.all(res.a[free] > 0.0)
     with pytest.raises(ValueError, match="sorted"):
-        DamageOperator(mesh, 1.0, 0.2, fixed_nodes=fixed[::-1])
+        P1Damage(mesh, 1.0, 0.2, fixed_nodes=fixed[::-1])
     with pytest.raises(ValueError, match="at"):
-        DamageOperator(mesh, 1.0, 0.2, at=3)
+        P1Damage(mesh, 1.0, 0.2, at=3)
 
 
 @pytest.mark.parametrize("k_res", [0.0, 1e-2])
@@ -98,9 +100,10 @@ def test_at1_onset_stress(k_res):
     ``sigma_c = sqrt(3 Gc E / (8 eps))`` and is ``1 - (sigma_c/sigma)^2`` everywhere above.
 
     Exact on any mesh: P1 holds the uniform strain exactly, so ``psi`` is the same in every
-    cell and ``c_i = T psi m_i``; the AT1 local term is ``(3 Gc T / (8 eps)) m_i``, so
-    ``b = T (2 psi - 3 Gc / (8 eps)) m`` has one sign at every node, and ``L 1 = 0`` makes the
-    uniform field ``a = 1 - 3 Gc / (16 eps psi)`` solve ``A a = b``. ``g'(0) = -2`` whatever
+    cell and ``c_i = T psi omega_i``; the AT1 local term is ``(3 Gc T / (8 eps)) omega_i``, so
+    ``b = 2 c - (3 Gc T / (8 eps)) omega = T (2 psi - 3 Gc / (8 eps)) omega`` has one sign at
+    every node, and ``L 1 = 0`` makes the uniform field ``a = 1 - 3 Gc / (16 eps psi)`` solve
+    ``A a = b``. ``g'(0) = -2`` whatever
     ``k_res``: the threshold does not depend on it."""
     lx, ly, T, Gc, eps = 4.0, 1.0, 0.5, 0.8, 0.15
     mesh = tri_mesh(16, 5, lx, ly, jitter=0.3)
@@ -108,13 +111,13 @@ def test_at1_onset_stress(k_res):
     right = np.flatnonzero(mesh.points[:, 0] == lx)
     con = np.unique(np.concatenate([left * 2, right * 2, [1]]))  # node 0 = (0, 0) held in y
     el = Elasticity(mesh, E, NU, plane="stress", thickness=T, k_res=k_res, constrained=con)
-    op = DamageOperator(mesh, Gc, eps, at=1, thickness=T)
+    op = P1Damage(mesh, Gc, eps, at=1, thickness=T)
     sigma_c = math.sqrt(3.0 * Gc * E / (8.0 * eps))
     for s in (1.0 - 1e-3, 1.0 + 1e-3):
         delta = s * sigma_c / E * lx  # undamaged stress C e = s sigma_c (g(0) = 1 + k_res scales neither psi nor c)
         u = solve(el, np.zeros(mesh.n_nodes), np.where(np.isin(con, right * 2), delta, 0.0))
         np.testing.assert_allclose(el.stress(u)[:, 0], s * sigma_c, rtol=1e-10)
-        A, b = op.problem(el.nodal_energy(u))
+        A, b = op.problem(2.0 * el.nodal_energy(u))
         a = solve_box_qp(A, b, lower=0.0, upper=1.0, rtol=1e-12).a
         if s < 1:
             assert np.all(a == 0.0)
@@ -129,7 +132,7 @@ def crack_excess(ratio, lines, eps=0.1, H=0.3, T=2.0, Gc=1.3):
     h = eps / ratio
     nx = int(round(8 * ratio))
     mesh = tri_mesh(nx, 3, 8 * eps, H, x0=-4 * eps)
-    op = DamageOperator(mesh, Gc, eps, at=1, thickness=T)
+    op = P1Damage(mesh, Gc, eps, at=1, thickness=T)
     A, b = op.problem(np.zeros(mesh.n_nodes))
     x = mesh.points[:, 0]
     crack = np.zeros(mesh.n_nodes, dtype=bool)
@@ -145,7 +148,7 @@ def test_crack_surface_energy(lines):
     """The surface energy of a straight crack along a mesh line tends to ``Gc T length``.
 
     On these meshes (every interior node in six right triangles) ``L`` is the 5-point
-    Laplacian and ``m`` the trapezoidal weights, so for a field constant in y the problem is
+    Laplacian and ``omega`` the trapezoidal weights, so for a field constant in y the problem is
     the 1D lumped P1 one. With ``N = 2 eps / h`` an integer, the sampled optimal profile
     ``(1 - |x|/(2 eps))^2`` satisfies its KKT conditions exactly (second difference
     ``h^2 / (2 eps^2)`` on the free nodes, positive gradient where it reaches 0), and summing

@@ -11,7 +11,7 @@ import h5py
 import numpy as np
 import pytest
 
-from fem3d.damage import DamageOperator
+from fem3d.damage import P1Damage
 from fem3d.elasticity import Elasticity
 from fem3d.mesh import Mesh
 from fem3d.model import FemModel, Loads
@@ -48,7 +48,7 @@ def strip_model(mesh):
     loading = Loading(t_max=1.0, steps=2, fixed=("pin",), displacement=(("left", 0, 0.0), ("right", 0, 1.0)))
     loads = Loads(mesh, loading, T)
     elasticity = Elasticity(mesh, E, NU, plane="stress", thickness=T, k_res=K_RES, constrained=loads.constrained)
-    damage = DamageOperator(mesh, GC, EPS, at=1, thickness=T)
+    damage = P1Damage(mesh, GC, EPS, at=1, thickness=T)
     solver = make_solver("direct", elasticity.matrix(np.zeros(mesh.n_nodes)))
     return FemModel(mesh, elasticity, damage, loads, solver)
 
@@ -191,7 +191,7 @@ def chain_model(nx=20, force=3.0, nu=0.0):
                       constant_force=(("middle", (force, 0.0)),))
     loads = Loads(mesh, loading, T)
     elasticity = Elasticity(mesh, E, nu, plane="stress", thickness=T, k_res=0.0, constrained=loads.constrained)
-    damage = DamageOperator(mesh, GC, EPS, at=1, thickness=T)
+    damage = P1Damage(mesh, GC, EPS, at=1, thickness=T)
     solver = make_solver("direct", elasticity.matrix(np.zeros(mesh.n_nodes)))
     return FemModel(mesh, elasticity, damage, loads, solver)
 

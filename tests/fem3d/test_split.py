@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from fem3d import split as splits
-from fem3d.damage import DamageOperator
+from fem3d.damage import P1Damage
 from fem3d.elasticity import Elasticity, lame_parameters
 from fem3d.model import FemModel, Loads
 from fem3d.scene import Loading
@@ -94,7 +94,7 @@ def strip(split, alpha_value):
     loads = Loads(mesh, loading, T)
     el = Elasticity(mesh, E, NU, plane="stress", thickness=T, k_res=K_RES, constrained=loads.constrained,
                     split=split)
-    model = FemModel(mesh, el, DamageOperator(mesh, GC, EPS, thickness=T), loads,
+    model = FemModel(mesh, el, P1Damage(mesh, GC, EPS, thickness=T), loads,
                      make_solver("direct", el.matrix(np.zeros(mesh.n_nodes))))
     return model, np.full(mesh.n_nodes, alpha_value)
 

@@ -33,7 +33,7 @@ from onedim.fragment import fragment_displacement, fragment_energy
 from thinfilm.plate.grid import Grid
 from thinfilm.solvers.linear import make_solver
 from thinfilm.plate.model import crack_profile
-from thinfilm.plate.operators import DamageOperator, PlateOperator
+from thinfilm.plate.operators import GridDamage, PlateOperator
 from thinfilm.plate import energy
 from thinfilm.plate.kernels import reference
 
@@ -270,7 +270,7 @@ def band_energy_change(eta_over_h, angles_deg):
     grid = Grid.rectangle(-half, half, n, -half, half, n)
     x, y = (c.ravel() for c in grid.coordinates)
     plate = PlateOperator(grid, 0.3, winkler, 1e-6)
-    damage = DamageOperator(grid, eta, 1.0, 1)
+    damage = GridDamage(grid, eta, 1.0, 1)
     disk = x**2 + y**2 < radius**2
     zero = np.zeros(grid.n_nodes)
     undamaged = make_solver("direct", plate.matrix(zero))

@@ -11,7 +11,7 @@ from thinfilm.cli import main
 from thinfilm.plate.energy import nodal_energy, surface_energy, total_energy
 from thinfilm.plate.grid import Grid
 from thinfilm.plate.imperfection import gaussian_field, toughness_factor
-from thinfilm.plate.operators import DamageOperator, PlateOperator
+from thinfilm.plate.operators import GridDamage, PlateOperator
 from thinfilm.plate.symmetry import GridSymmetry
 
 from tests.helpers import CASES
@@ -69,8 +69,8 @@ def test_uniform_factor_is_the_uniform_film(at):
     grid = Grid(0.0, 1.0, 30, 0.0, 0.5, 15)
     e = np.random.default_rng(0).random(grid.n_nodes)
     alpha = np.random.default_rng(1).random(grid.n_nodes)
-    plain = DamageOperator(grid, 0.05, 1.3, at)
-    ones = DamageOperator(grid, 0.05, 1.3, at, toughness_factor=np.ones(grid.n_nodes))
+    plain = GridDamage(grid, 0.05, 1.3, at)
+    ones = GridDamage(grid, 0.05, 1.3, at, toughness_factor=np.ones(grid.n_nodes))
     A0, b0 = plain.problem(e)
     A0 = A0.copy()
     A1, b1 = ones.problem(e)
@@ -86,7 +86,7 @@ def test_alpha_problem_matches_the_energy_of_a_varying_toughness(at):
     rng = np.random.default_rng(2)
     factor = toughness_factor(grid, 0.5, 0.1, 4)
     plate = PlateOperator(grid, 0.3, 500.0, 1e-6)
-    damage = DamageOperator(grid, 0.06, 0.8, at, toughness_factor=factor)
+    damage = GridDamage(grid, 0.06, 0.8, at, toughness_factor=factor)
     u, w = rng.standard_normal(grid.n_nodes), rng.standard_normal(grid.n_nodes)
     from thinfilm.plate.energy import damage_problem, damage_problem_constant
 
@@ -125,7 +125,7 @@ def test_surface_energy_of_a_varying_toughness_converges_at_second_order():
     for n in (20, 40, 80):
         grid = Grid(0.0, 1.0, n, 0.0, 0.5, n // 2)
         x, y = grid.coordinates
-        damage = DamageOperator(grid, eta, toughness, 1, toughness_factor=f(x, y))
+        damage = GridDamage(grid, eta, toughness, 1, toughness_factor=f(x, y))
         errors.append(abs(surface_energy(damage, alpha(x, y)) - exact))
         hs.append(grid.hx)
     order = np.polyfit(np.log(hs), np.log(errors), 1)[0]

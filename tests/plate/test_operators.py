@@ -16,7 +16,7 @@ import scipy.sparse.linalg as spla
 from thinfilm.plate import energy
 from thinfilm.plate.grid import Grid
 from thinfilm.plate.kernels import reference
-from thinfilm.plate.operators import DamageOperator, PlateOperator
+from thinfilm.plate.operators import GridDamage, PlateOperator
 
 GRID_2D = Grid.rectangle(-0.5, 0.5, 9, -0.3, 0.3, 7)  # hx != hy, a few interior rows
 GRID_1D = Grid.line(-0.5, 0.5, 11)
@@ -88,7 +88,7 @@ def test_operator_validation():
     with pytest.raises(ValueError, match="'y0'"):
         PlateOperator(GRID_1D, 0.3, 1.0, 1e-6, clamped=("y0",))
     with pytest.raises(ValueError, match="at"):
-        DamageOperator(GRID_2D, 0.1, 1.0, at=3)
+        GridDamage(GRID_2D, 0.1, 1.0, at=3)
     plate = PlateOperator(GRID_2D, 0.3, 1.0, 1e-6)
     with pytest.raises(ValueError, match="alpha"):
         plate.matrix(np.zeros(3))
@@ -131,7 +131,7 @@ def test_kernels_match_reference(grid, clamped, nu):
 @pytest.mark.parametrize("grid", [GRID_2D, GRID_1D], ids=["2d", "1d"])
 @pytest.mark.parametrize("at", [1, 2])
 def test_damage_kernels_match_reference(grid, at):
-    damage = DamageOperator(grid, eta=0.15, toughness=2.0, at=at)
+    damage = GridDamage(grid, eta=0.15, toughness=2.0, at=at)
     alpha = np.random.default_rng(1).random(grid.n_nodes)
     L_ref = reference.laplacian(grid.nx, grid.ny, grid.hx, grid.hy)
     assert abs(damage.laplacian - L_ref).max() <= 1e-14 * abs(L_ref).max()
@@ -224,7 +224,7 @@ def test_u_gradient_matches_finite_differences(grid, clamped):
 @pytest.mark.parametrize("at", [1, 2])
 def test_alpha_problem_quadratic_form(grid, clamped, at):
     plate = PlateOperator(grid, 0.3, 5.0, 1e-3, clamped)
-    damage = DamageOperator(grid, eta=0.2, toughness=3.0, at=at)
+    damage = GridDamage(grid, eta=0.2, toughness=3.0, at=at)
     _, u, w = random_state(grid, plate, seed=4)
     A, b = energy.damage_problem(plate, damage, u)
     const = energy.damage_problem_constant(plate, u, w)
@@ -254,7 +254,7 @@ def test_alpha_problem_quadratic_form(grid, clamped, at):
 @pytest.mark.parametrize("at", [1, 2])
 def test_nodal_energy_sums_to_total(grid, clamped, at):
     plate = PlateOperator(grid, 0.3, 5.0, 1e-3, clamped)
-    damage = DamageOperator(grid, eta=0.2, toughness=3.0, at=at)
+    damage = GridDamage(grid, eta=0.2, toughness=3.0, at=at)
     alpha, _, w = random_state(grid, plate, seed=8)
     u = np.random.default_rng(9).standard_normal(grid.n_nodes)  # clamped values ignored
     nodal = energy.nodal_energy(plate, damage, u, alpha, w)

@@ -13,7 +13,7 @@ from thinfilm.plate.energy import total_energy
 from thinfilm.plate.grid import Grid
 from thinfilm.solvers.linear import make_solver
 from thinfilm.plate.model import crack_profile
-from thinfilm.plate.operators import DamageOperator, PlateOperator
+from thinfilm.plate.operators import GridDamage, PlateOperator
 
 from tests.helpers import CASES
 
@@ -26,7 +26,7 @@ def _problem(cells=40):
     grid = Grid.rectangle(-0.1, 0.1, cells, -0.1, 0.1, cells)
     x, y = grid.coordinates
     plate = PlateOperator(grid, 0.3, 6.4e7, 1e-6)
-    damage = DamageOperator(grid, 0.01, 1.5, 1)
+    damage = GridDamage(grid, 0.01, 1.5, 1)
     r2, rc2 = x**2 + y**2, RADIUS**2 * T * (2 - T)
     w = np.where(r2 < rc2, RADIUS * (1 - T) - np.sqrt(np.maximum(RADIUS**2 - r2, 0.0)), 0.0)
     alpha = 0.9 * crack_profile(np.hypot(x - 0.002, y + 0.003), 0.01, 1)

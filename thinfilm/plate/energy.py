@@ -75,10 +75,12 @@ def bending_density(plate, u) -> np.ndarray:
 def surface_energy(damage, alpha) -> float:
     """Ambrosio-Tortorelli surface energy ``S_h(alpha)``.
 
-    ``toughness/(4 c_m) Int( alpha^m / eta + eta |grad alpha|^2 )``, ``m = at``, with the
-    trapezoidal rule for the first term and forward differences on grid edges for the
-    second (see :mod:`thinfilm.plate.operators`). For a film of varying toughness each node's
-    local term takes its factor and each edge's gradient term the mean of its nodes'.
+    ``docs/model.md#the-discrete-damage-problem`` on the grid's node weights and edge
+    Laplacian (:mod:`thinfilm.plate.operators`): for a uniform film by the grid's stencil
+    kernel, which needs no matrix product; for a film of varying toughness (each node's local
+    term takes its factor, each edge's gradient term the mean of its nodes') as the sum of
+    :meth:`thinfilm.damage.DamageOperator.surface_density`, so that :func:`nodal_energy`
+    sums to it.
     """
     grid = damage.grid
     alpha = grid.nodal("alpha", alpha)
@@ -132,16 +134,15 @@ def nodal_energy(plate, damage, u, alpha, w) -> np.ndarray:
     Node ``n`` takes ``1/2 g_n e_n`` (its lumped bending energy, twist shared by the four
     cells around it, see :func:`bending_density`), its foundation term
     ``winkler/2 omega_n (u_n - w_n)^2`` and its surface terms
-    ``cs (omega_n alpha_n^m / eta + eta alpha_n (L alpha)_n)``, where the gradient sum
-    ``alpha.L.alpha`` is split as ``alpha_n (L alpha)_n`` (with the toughness factors of an
-    imperfect film: :meth:`DamageOperator.surface_density`). The entries sum to
+    (:meth:`thinfilm.damage.DamageOperator.surface_density`, with the toughness factors of an
+    imperfect film). The entries sum to
     :func:`total_energy` (to round-off); summed over a region they give the energy there,
     exact up to the stencils that straddle its boundary.
 
     Parameters
     ----------
     plate : PlateOperator
-    damage : DamageOperator
+    damage : thinfilm.plate.operators.GridDamage
     u, alpha, w : ndarray, shape (n_nodes,)
         Displacement, damage and substrate displacement ``w_t`` at the nodes.
     """
@@ -158,9 +159,8 @@ def damage_problem(plate, damage, u) -> tuple[sp.csr_matrix, np.ndarray]:
     """The alpha-problem at fixed ``u``: ``(A, b)`` with
     ``E_h(u, alpha) = 1/2 alpha.A.alpha - b.alpha + const`` for every ``alpha``.
 
-    ``A = diag(e) + 2 cs eta L [+ diag(2 cs omega/eta), AT2]``, ``b = e [- cs omega/eta, AT1]``,
-    ``cs = toughness/(4 c_m)``, ``omega`` the node weights, ``e`` from :func:`bending_density`,
-    ``L`` the edge Laplacian.
+    :meth:`thinfilm.damage.DamageOperator.problem` for the nodal energy ``e`` of
+    :func:`bending_density` (``docs/model.md#the-discrete-damage-problem``).
     The bound constraints (irreversibility, ``alpha <= 1``) are the damage solver's.
 
     Returns

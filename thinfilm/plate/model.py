@@ -17,7 +17,7 @@ from scipy import ndimage
 from thinfilm.plate.energy import load_force
 from thinfilm.plate.grid import Grid
 from thinfilm.solvers.linear import DirectSolver, make_solver
-from thinfilm.plate.operators import DamageOperator, PlateOperator
+from thinfilm.plate.operators import GridDamage, PlateOperator
 from thinfilm.plate.stability import lowest_modes
 
 
@@ -88,7 +88,7 @@ class PlateModel:
                  toughness_factor=None, load_rate=None):
         self.grid = grid
         self.plate = PlateOperator(grid, nu, winkler, k_res, clamped=clamped)
-        self.damage = DamageOperator(grid, eta, toughness, at, toughness_factor=toughness_factor)
+        self.damage = GridDamage(grid, eta, toughness, at, toughness_factor=toughness_factor)
         self.eta, self.at = float(eta), int(at)
         self.load = load
         self.proportional = bool(proportional)

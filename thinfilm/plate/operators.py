@@ -51,27 +51,17 @@ there, and the u-matrix keeps only their diagonal (the Hessian's), decoupled fro
 with a zero right-hand side. A node where a clamped edge meets a free edge takes the
 free-edge closure in the free direction (``(1 - nu^2) a^2`` with the ghost ``a``).
 
-Surface energy (AT1, ``m = 1``, ``c_1 = 2/3``; AT2, ``m = 2``, ``c_2 = 1/2``), gradients by
-forward differences on grid edges, edge weights ``hx omega_y_j`` (x-edges) and
-``omega_x_i hy`` (y-edges)::
-
-    S_h = toughness / (4 c_m) [ sum_n omega_n alpha_n^m / eta
-                                + eta sum_{x-edges} omega_y_j / hx (alpha_{i+1,j} - alpha_{i,j})^2
-                                + eta sum_{y-edges} omega_x_i / hy (alpha_{i,j+1} - alpha_{i,j})^2 ]
-
-An imperfect film, of toughness ``toughness * f_n`` at node ``n`` (:mod:`thinfilm.plate.imperfection`),
+Surface energy and the alpha-problem (``docs/model.md#the-discrete-damage-problem``, held by
+:class:`thinfilm.damage.DamageOperator`): gradients by forward differences on grid edges, so
+``L`` is the edge Laplacian, ``alpha.L.alpha = sum_{x-edges} omega_y_j / hx
+(alpha_{i+1,j} - alpha_{i,j})^2 + sum_{y-edges} omega_x_i / hy (alpha_{i,j+1} - alpha_{i,j})^2``,
+and the lumped measure is the node weights ``omega``; no fixed nodes, thickness 1. An imperfect
+film, of toughness ``toughness * f_n`` at node ``n`` (:mod:`thinfilm.plate.imperfection`),
 weights node ``n``'s local term by ``f_n`` and an edge's gradient term by the mean of its two
-nodes' factors (``omega -> omega f``, ``L -> L_G`` below): a second-order quadrature of
-``Int G(x) (...)`` for a smooth ``G``.
-
-The alpha-problem at fixed ``u`` is quadratic: with ``e_n`` the lumped undamaged bending
-energy (``P_bending = 1/2 sum_n g_n e_n``; see :func:`thinfilm.plate.energy.bending_density`),
-``L`` the edge Laplacian (``alpha.L.alpha`` = the gradient sum) and ``cs = toughness/(4 c_m)``::
-
-    E_h = 1/2 alpha.A.alpha - b.alpha + const,
-    A = diag(e) + 2 cs eta L   [+ diag(2 cs omega / eta) for AT2]
-    b = e                      [- cs omega / eta for AT1]
-    const = 1/2 (1 + k_res) sum_n e_n + foundation energy.
+nodes' factors (``omega -> omega f``, ``L -> L_f``): a second-order quadrature of
+``Int G(x) (...)`` for a smooth ``G``. The nodal energy is ``e`` of
+:func:`thinfilm.plate.energy.bending_density` (``P_bending = 1/2 sum_n g_n e_n``), and
+``const = 1/2 (1 + k_res) sum_n e_n + foundation energy``.
 
 All fields follow the flattening convention of :mod:`thinfilm.plate.grid`. Lengths are in units
 of the domain size L, energies in the non-dimensional units of ``docs/model.md``.
@@ -86,19 +76,13 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from thinfilm.damage import DamageOperator
 from thinfilm.options import real_in_range
 from thinfilm.plate.grid import Grid
 from thinfilm.plate import energy
 from thinfilm.plate.kernels import stencil as kernels
 
-__all__ = ["PlateOperator", "DamageOperator", "degradation", "c_m", "near_nullspace"]
-
-
-def c_m(at: int) -> float:
-    """AT normalization constant: ``c_1 = 2/3``, ``c_2 = 1/2``."""
-    if at not in (1, 2):
-        raise ValueError(f"at = {at!r} must be 1 or 2")
-    return 2.0 / 3.0 if at == 1 else 0.5
+__all__ = ["PlateOperator", "GridDamage", "degradation", "near_nullspace"]
 
 
 def degradation(alpha: np.ndarray, k_res: float) -> np.ndarray:
@@ -324,8 +308,9 @@ class PlateOperator:
         return energy.bending_density(self, u)
 
 
-class DamageOperator:
-    """The Ambrosio-Tortorelli terms and the alpha-problem on a structured grid.
+class GridDamage(DamageOperator):
+    """The damage operator of the plate: :class:`thinfilm.damage.DamageOperator` on the grid's
+    edge Laplacian and node weights (module docstring).
 
     Parameters
     ----------
@@ -341,23 +326,22 @@ class DamageOperator:
         :mod:`thinfilm.plate.imperfection`). The local term of node ``n`` takes ``factor_n``, the
         gradient term of an edge the mean of its two nodes' factors. None: uniform.
 
-    Notes
-    -----
-    The matrix ``A`` of :meth:`problem` shares the pattern of the edge Laplacian, built
-    once; each call rewrites only its diagonal, in place (same object returned each time).
+    Attributes
+    ----------
+    grid : Grid
+    toughness_factor : ndarray or None
+    L : scipy.sparse.csr_matrix
+        ``L_f``: the edge Laplacian with each edge weighted by its toughness factor,
+        ``alpha.L_f.alpha = sum_e f_e omega_e (D alpha)_e^2`` (:attr:`laplacian` for a uniform
+        film).
+    omega : ndarray
+        ``omega_n f_n``: the node weights of the local term ``alpha^m / eta``.
     """
 
     def __init__(self, grid: Grid, eta: float, toughness: float, at: int = 1, toughness_factor=None):
         if not isinstance(grid, Grid):
             raise TypeError(f"grid = {grid!r} must be a thinfilm.plate.grid.Grid")
         self.grid = grid
-        self.eta = real_in_range("eta", eta, 0.0, math.inf, True, True)
-        self.toughness = real_in_range("toughness", toughness, 0.0, math.inf, True, True)
-        if isinstance(at, bool) or at not in (1, 2):
-            raise ValueError(f"at = {at!r} must be 1 or 2")
-        self.at = int(at)
-        self.cs = self.toughness / (4.0 * c_m(self.at))
-
         if toughness_factor is not None:
             toughness_factor = grid.nodal("toughness_factor", toughness_factor)
             if not (np.all(np.isfinite(toughness_factor)) and np.all(toughness_factor > 0)):
@@ -368,77 +352,23 @@ class DamageOperator:
         n = grid.n_nodes
         self._laplacian = sp.csr_matrix((data, indices, indptr), shape=(n, n))
         self._laplacian.has_sorted_indices = True
-        self._diag_pos = diag_pos
         if toughness_factor is None:
-            self._surface_laplacian = self._laplacian
-            self._local_weights = grid.weights
+            L, omega = self._laplacian, grid.weights
         else:
-            self._surface_laplacian = _edge_weighted(self._laplacian, diag_pos, toughness_factor)
-            self._local_weights = grid.weights * toughness_factor
-        # A = 2 cs eta L_G + diag(e) [+ 2 cs omega_G/eta]: only the diagonal depends on u.
-        self._A = sp.csr_matrix((2.0 * self.cs * self.eta * self._surface_laplacian.data, indices, indptr),
-                                shape=(n, n))
-        self._A.has_sorted_indices = True
-        self._diag_fixed = self._A.data[diag_pos].copy()
-        if self.at == 2:
-            self._diag_fixed += 2.0 * self.cs / self.eta * self._local_weights
-            self._linear = np.zeros(n)
-        else:
-            self._linear = self.cs / self.eta * self._local_weights
+            L, omega = _edge_weighted(self._laplacian, diag_pos, toughness_factor), grid.weights * toughness_factor
+        super().__init__(L, omega, toughness, eta, at=at)
 
     @property
     def laplacian(self) -> sp.csr_matrix:
-        """Edge Laplacian ``L``, ``alpha.L.alpha = sum_e omega_e (D alpha)_e^2`` (a copy)."""
+        """Edge Laplacian ``L`` of a uniform film, ``alpha.L.alpha = sum_e omega_e (D alpha)_e^2``
+        (a copy)."""
         return self._laplacian.copy()
 
-    @property
-    def surface_laplacian(self) -> sp.csr_matrix:
-        """``L_G``: the edge Laplacian with each edge weighted by its toughness factor,
-        ``alpha.L_G.alpha = sum_e f_e omega_e (D alpha)_e^2`` (``L`` itself for a uniform
-        film; a copy)."""
-        return self._surface_laplacian.copy()
-
-    @property
-    def local_weights(self) -> np.ndarray:
-        """``omega_n f_n``: the node weights of the local term ``alpha^m / eta`` (a copy)."""
-        return self._local_weights.copy()
-
-    def surface_density(self, alpha) -> np.ndarray:
-        """The surface energy split over the nodes, shape ``(n_nodes,)``:
-        ``cs (omega_n f_n alpha_n^m / eta + eta alpha_n (L_G alpha)_n)``, which sums to
-        ``S_h(alpha)`` (the gradient sum ``alpha.L_G.alpha`` split as ``alpha_n (L_G alpha)_n``).
-
-        Uses the operator's own ``L_G`` and weights, not copies: it runs at every
-        alternate-minimization iteration of an imperfect film.
-        """
-        alpha = self.grid.nodal("alpha", alpha)
-        return self.cs * (self._local_weights * alpha**self.at / self.eta
-                          + self.eta * alpha * (self._surface_laplacian @ alpha))
-
     def surface_energy(self, alpha) -> float:
-        """Surface energy ``S_h(alpha)``; see :func:`thinfilm.plate.energy.surface_energy`."""
+        """Surface energy ``S_h(alpha)``; see :func:`thinfilm.plate.energy.surface_energy` (the
+        grid's stencil kernel for a uniform film, the sum of :meth:`surface_density` for an
+        imperfect one)."""
         return energy.surface_energy(self, alpha)
-
-    def problem(self, e) -> tuple[sp.csr_matrix, np.ndarray]:
-        """``(A, b)`` of the alpha-problem for the lumped bending energy ``e``.
-
-        Parameters
-        ----------
-        e : ndarray, shape (n_nodes,)
-            Lumped undamaged bending energy (:func:`thinfilm.plate.energy.bending_density`), >= 0.
-
-        Returns
-        -------
-        A : csr_matrix, shape (n_nodes, n_nodes)
-            Symmetric; positive definite for AT2, and for AT1 as soon as ``e > 0`` at one
-            node (the Laplacian's only null vector is the constant). Rewritten in place by
-            the next call.
-        b : ndarray, shape (n_nodes,)
-        """
-        e = self.grid.nodal("e", e)
-        self._A.data[self._diag_pos] = self._diag_fixed + e
-        return self._A, e - self._linear
-
 
 def _edge_weighted(L: sp.csr_matrix, diag_pos: np.ndarray, factor: np.ndarray) -> sp.csr_matrix:
     """The Laplacian ``L`` (zero row sums) with the edge ``(p, q)`` scaled by

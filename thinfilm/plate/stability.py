@@ -56,7 +56,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from thinfilm.solvers.linear import make_solver
-from thinfilm.plate.operators import DamageOperator, PlateOperator
+from thinfilm.plate.operators import GridDamage, PlateOperator
 
 __all__ = ["Modes", "ReducedProblem", "free_nodes", "damage_hessian", "reduced_hessian", "reduced_problem",
            "lowest_modes"]
@@ -104,18 +104,18 @@ def free_nodes(alpha, lower) -> np.ndarray:
     return np.nonzero((alpha > np.asarray(lower) + BOUND_TOL) & (alpha < 1.0 - BOUND_TOL))[0]
 
 
-def damage_hessian(plate: PlateOperator, damage: DamageOperator, u, free):
+def damage_hessian(plate: PlateOperator, damage: GridDamage, u, free):
     """``E_aa`` on the free nodes: the alpha-problem's matrix at ``u``, shape ``(m, m)`` (CSR)."""
     A, _ = damage.problem(plate.bending_density(u))
     return A.tocsr()[free][:, free]
 
 
-def reduced_hessian(plate: PlateOperator, damage: DamageOperator, u, alpha, free, solve, A_ff=None):
+def reduced_hessian(plate: PlateOperator, damage: GridDamage, u, alpha, free, solve, A_ff=None):
     """The Hessian of the reduced energy on the free nodes, as a function ``dalpha_F -> H_FF dalpha_F``.
 
     Parameters
     ----------
-    plate, damage : PlateOperator, DamageOperator
+    plate, damage : PlateOperator, GridDamage
     u : ndarray, shape (n_nodes,)
         The minimizing displacement at ``alpha`` (``K(alpha) u = f``).
     alpha : ndarray, shape (n_nodes,)
@@ -177,7 +177,7 @@ class ReducedProblem:
     solves: int = 0
 
 
-def reduced_problem(plate: PlateOperator, damage: DamageOperator, alpha, w, lower, solver=None) -> ReducedProblem:
+def reduced_problem(plate: PlateOperator, damage: GridDamage, alpha, w, lower, solver=None) -> ReducedProblem:
     """Factor ``K(alpha)``, solve for ``u`` and set up the scaled reduced Hessian on the free nodes.
 
     Parameters are those of :func:`lowest_modes`.
@@ -205,13 +205,13 @@ def reduced_problem(plate: PlateOperator, damage: DamageOperator, alpha, w, lowe
     return problem
 
 
-def lowest_modes(plate: PlateOperator, damage: DamageOperator, alpha, w, lower, k=4, tol=1e-4, maxiter=300,
+def lowest_modes(plate: PlateOperator, damage: GridDamage, alpha, w, lower, k=4, tol=1e-4, maxiter=300,
                  solver=None) -> Modes:
     """The ``k`` lowest curvatures of the reduced energy at damage ``alpha`` and their modes.
 
     Parameters
     ----------
-    plate, damage : PlateOperator, DamageOperator
+    plate, damage : PlateOperator, GridDamage
     alpha, w, lower : ndarray, shape (n_nodes,)
         Damage, substrate displacement ``w_t`` and the damage's lower bound (irreversibility).
     k : int

@@ -1,0 +1,240 @@
+r"""The Ambrosio-Tortorelli surface energy and the damage problem on any discretization.
+
+The definitions are those of ``docs/model.md#the-discrete-damage-problem``; the symbols here
+are its symbols. A discretization supplies
+
+- ``L``, its Laplacian-like stiffness: symmetric, zero row sums, ``alpha.L.alpha`` the
+  discrete ``Int |grad alpha|^2`` (the plate's edge Laplacian, weighted by the toughness
+  factor for an imperfect film; the P1 stiffness matrix of the finite elements);
+- ``omega``, its lumped nodal measure: ``sum_n omega_n alpha_n^m`` the discrete
+  ``Int alpha^m`` (the plate's node weights times the toughness factor; the finite elements'
+  lumped area or volume);
+- optionally fixed nodes, where the damage is held at 0;
+- the constants: toughness ``Gc``, regularization length ``eta``, ``m = at`` (1: AT1, 2: AT2)
+  and the thickness ``T`` of a 2D slab (1 otherwise).
+
+With ``cs = Gc / (4 c_m)`` (:func:`c_m`) the surface energy is::
+
+    S_h(alpha) = cs T [ sum_n omega_n alpha_n^m / eta + eta alpha.L.alpha ]
+
+and, with ``e_n`` the model's nodal energy, such that the degraded elastic energy is
+``1/2 sum_n g(alpha_n) e_n`` with ``g(a) = (1 - a)^2 + k_res``, the total energy at fixed
+displacement is ``1/2 alpha.A.alpha - b.alpha + const`` with::
+
+    A = diag(e) + 2 cs eta T L        (AT2: + diag(2 cs T omega / eta))
+    b = e                             (AT1: - cs T omega / eta)
+
+``k_res`` enters only ``const``. ``A`` is symmetric, positive definite for AT2, and for AT1
+as soon as ``e > 0`` at one node of each connected part of the graph of ``L``.
+
+Fixed nodes (``docs/model.md#buffer-layers-and-fixed-regions``): their rows and columns are
+decoupled, ``A_ii = 1``, ``b_i = -1``, the off-diagonal entries removed from the pattern. The
+minimizer in that coordinate, ``-1``, lies below the lower bound (>= 0), so the bound holds
+``alpha_i`` at 0 exactly whatever the solver's bounds there; and decoupling changes nothing
+for admissible ``alpha``, since every removed term ``A_ij alpha_i alpha_j`` and
+``b_i alpha_i`` has ``alpha_i = 0``. So ``1/2 alpha.A.alpha - b.alpha`` still equals
+``E(u, alpha) - E(u, 0)`` whenever ``alpha = 0`` on the fixed nodes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import scipy.sparse as sp
+
+from thinfilm.options import real_in_range
+
+__all__ = ["DamageOperator", "c_m"]
+
+
+def c_m(at: int) -> float:
+    """The AT normalization ``c_m = Int_0^1 sqrt(s^m) ds``: 2/3 (AT1), 1/2 (AT2).
+
+    With it a straight crack of optimal profile costs ``Gc`` per unit length
+    (``docs/model.md#conventions``).
+
+    Parameters
+    ----------
+    at : {1, 2}
+
+    Raises
+    ------
+    ValueError
+        If ``at`` is not 1 or 2 (``True`` included).
+    """
+    if isinstance(at, bool) or at not in (1, 2):
+        raise ValueError(f"at = {at!r} must be 1 or 2")
+    return 2.0 / 3.0 if at == 1 else 0.5
+
+
+class DamageOperator:
+    """The AT surface energy and the damage problem's ``(A, b)`` for a given ``L`` and ``omega``.
+
+    Parameters
+    ----------
+    L : scipy.sparse.csr_matrix, shape (n, n)
+        Symmetric, zero row sums, sorted indices, every diagonal entry stored; units
+        length^(d-2) (``alpha.L.alpha`` approximates ``Int |grad alpha|^2``). Kept, not copied.
+    omega : ndarray, shape (n,)
+        Lumped nodal measure, > 0 (length^d). Copied.
+    toughness : float
+        ``Gc`` > 0: energy per unit crack length (2D, per unit thickness) or area (3D).
+    eta : float
+        Regularization length, > 0.
+    at : {1, 2}
+        AT1 (``alpha^m = alpha``) or AT2 (``alpha^2``).
+    thickness : float
+        ``T`` > 0: the thickness of a 2D slab whose energies are the whole slab's; 1 otherwise.
+    fixed_nodes : array of int, optional
+        Nodes where the damage is held at 0, sorted without repeats.
+
+    Attributes
+    ----------
+    toughness, eta, thickness, cs : float
+        ``cs = toughness / (4 c_m)``.
+    at : int
+    L : scipy.sparse.csr_matrix
+        The ``L`` given; do not modify.
+    omega : ndarray, shape (n,)
+        Read-only.
+    fixed_nodes : ndarray of int64
+        Empty if none; read-only.
+
+    Notes
+    -----
+    The matrix ``A`` of :meth:`problem` is built once on the pattern of ``L`` (without the
+    fixed nodes' couplings); each call rewrites only its diagonal, in place, and returns the
+    same object.
+    """
+
+    def __init__(self, L, omega, toughness: float, eta: float, *, at: int = 1, thickness: float = 1.0,
+                 fixed_nodes=None):
+        if not sp.issparse(L) or L.format != "csr" or L.ndim != 2 or L.shape[0] != L.shape[1]:
+            raise ValueError(f"L must be a square scipy.sparse CSR matrix, got {type(L).__name__}"
+                             f" of shape {getattr(L, 'shape', None)}")
+        n = L.shape[0]
+        if not L.has_sorted_indices:
+            raise ValueError("L must have sorted indices")
+        omega = np.array(omega, dtype=np.float64)
+        if omega.shape != (n,) or not (np.all(np.isfinite(omega)) and np.all(omega > 0)):
+            raise ValueError(f"omega must be finite and > 0 with shape ({n},), got shape {omega.shape}")
+        omega.flags.writeable = False
+        self.toughness = real_in_range("toughness", toughness, 0.0, math.inf, True, True)
+        self.eta = real_in_range("eta", eta, 0.0, math.inf, True, True)
+        self.thickness = real_in_range("thickness", thickness, 0.0, math.inf, True, True)
+        self.cs = self.toughness / (4.0 * c_m(at))
+        self.at = int(at)
+        self.L, self.omega = L, omega
+        self.fixed_nodes = _fixed_nodes(fixed_nodes, n)
+
+        indptr, indices = L.indptr, L.indices
+        rows = np.repeat(np.arange(n, dtype=np.int64), np.diff(indptr))
+        if self.fixed_nodes.size:
+            is_fixed = np.zeros(n, dtype=bool)
+            is_fixed[self.fixed_nodes] = True
+            keep = (rows == indices) | ~(is_fixed[rows] | is_fixed[indices])
+            A_indptr = np.zeros(n + 1, dtype=np.int64)
+            np.cumsum(np.bincount(rows[keep], minlength=n), out=A_indptr[1:])
+            rows, A_indices, data = rows[keep], indices[keep], L.data[keep]
+        else:
+            A_indptr, A_indices, data = indptr, indices, L.data
+        self._diag_pos = np.flatnonzero(rows == A_indices)  # one per row, in row order
+        if self._diag_pos.size != n:
+            raise ValueError("L must store every diagonal entry")
+        # A = 2 cs eta T L (its pattern) + diag(...): only the diagonal depends on u; the
+        # coefficients are formed as scalars first, so each array entry is rounded once.
+        T, cs, eta = self.thickness, self.cs, self.eta
+        self._A = sp.csr_matrix((2.0 * cs * eta * T * data, A_indices, A_indptr), shape=(n, n))
+        self._A.has_sorted_indices = True
+        self._diag_fixed = self._A.data[self._diag_pos].copy()
+        if self.at == 2:
+            self._diag_fixed += 2.0 * cs * T / eta * omega
+            self._linear = np.zeros(n)
+        else:
+            self._linear = cs * T / eta * omega
+
+    @property
+    def n_nodes(self) -> int:
+        """The number of damage unknowns ``n``."""
+        return self.L.shape[0]
+
+    def _nodal(self, name, values) -> np.ndarray:
+        a = np.ascontiguousarray(values, dtype=np.float64)
+        if a.shape != (self.n_nodes,):
+            raise ValueError(f"{name} has shape {a.shape}, expected ({self.n_nodes},) (flat nodal field)")
+        return a
+
+    def surface_energy(self, alpha) -> float:
+        """``S_h(alpha) = cs T [sum_n omega_n alpha_n^m / eta + eta alpha.L.alpha]`` (energy).
+
+        Parameters
+        ----------
+        alpha : ndarray, shape (n,)
+        """
+        alpha = self._nodal("alpha", alpha)
+        local = float(np.dot(self.omega, alpha if self.at == 1 else alpha * alpha))
+        return self.cs * self.thickness * (local / self.eta + self.eta * float(alpha @ (self.L @ alpha)))
+
+    def surface_density(self, alpha) -> np.ndarray:
+        """The surface energy split over the nodes,
+        ``cs T (omega_n alpha_n^m / eta + eta alpha_n (L alpha)_n)``, which sums to
+        :meth:`surface_energy` up to round-off (the gradient sum ``alpha.L.alpha`` split as
+        ``alpha_n (L alpha)_n``).
+
+        Parameters
+        ----------
+        alpha : ndarray, shape (n,)
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Energy per node.
+        """
+        alpha = self._nodal("alpha", alpha)
+        return self.cs * self.thickness * (self.omega * alpha**self.at / self.eta
+                                           + self.eta * alpha * (self.L @ alpha))
+
+    def problem(self, e) -> tuple[sp.csr_matrix, np.ndarray]:
+        """``(A, b)`` of the damage problem for the nodal energy ``e`` (module docstring), the
+        fixed nodes decoupled.
+
+        Parameters
+        ----------
+        e : ndarray, shape (n,)
+            Nodal undamaged elastic energy, >= 0: the degraded elastic energy is
+            ``1/2 sum_n g(alpha_n) e_n`` (energy units).
+
+        Returns
+        -------
+        A : scipy.sparse.csr_matrix, shape (n, n)
+            Symmetric, sorted indices; the same object every call, its diagonal rewritten in
+            place (copy it to keep it).
+        b : ndarray, shape (n,)
+            A new array.
+        """
+        e = self._nodal("e", e)
+        diag = self._diag_fixed + e
+        b = e - self._linear
+        if self.fixed_nodes.size:
+            diag[self.fixed_nodes] = 1.0
+            b[self.fixed_nodes] = -1.0
+        self._A.data[self._diag_pos] = diag
+        return self._A, b
+
+
+def _fixed_nodes(value, n) -> np.ndarray:
+    """``value`` as a read-only, strictly increasing int64 array of nodes in [0, n)."""
+    if value is None:
+        a = np.zeros(0, dtype=np.int64)
+    else:
+        a = np.asarray(value)
+        if a.ndim != 1 or not (a.size == 0 or np.issubdtype(a.dtype, np.integer)):
+            raise ValueError(f"fixed_nodes must be a 1D array of integers, got shape {a.shape} and dtype {a.dtype}")
+        a = a.astype(np.int64)
+        if a.size and (a[0] < 0 or a[-1] >= n):
+            raise ValueError(f"fixed_nodes has entries outside [0, {n}): min {a.min()}, max {a.max()}")
+        if np.any(np.diff(a) <= 0):
+            raise ValueError("fixed_nodes must be sorted without repeats")
+    a.flags.writeable = False
+    return a
