@@ -1,16 +1,16 @@
 """The double-torsion specimen of the dissertation's chapter 4 (Fig. 4.1, Table 4.1), meshed by
 gmsh (OpenCASCADE kernel) in P1 tetrahedra, lengths in mm.
 
-Coordinates (docs/cases.md#double-torsion): x along the length, the notched end at
-x = 0 and the far end at x = L; y across the width, the crack plane y = 0; z through the
-thickness, the bottom (supported, tensile near y = 0) face z = 0, the top (loaded, compressed)
-face z = T. The plate is ``0 <= x <= L, -W/2 <= y <= W/2, 0 <= z <= T``.
+Coordinates (docs/cases.md#double-torsion): x along the length, the notched end at x = 0 and the
+far end at x = L; y across the width, the crack plane y = 0; z through the thickness, the bottom
+(supported, tensile near y = 0) face z = 0, the top (loaded, compressed) face z = T. The plate
+is ``0 <= x <= L, -W/2 <= y <= W/2, 0 <= z <= T``.
 
 Readings adopted
 ----------------
-* Dimensions, Table 4.1 (Madjoubi's soda-lime glass): L = 80, W = 40, T = 3,
-  Wm = 17 mm. The table's ``Ls = 7 mm`` is read as the starter-notch length a0: it is the only
-  length the table could give for a0, which every plot uses and nothing else defines (the other
+* Dimensions, Table 4.1 (Madjoubi's soda-lime glass): L = 80, W = 40, T = 3, Wm = 17 mm. The
+  table's ``Ls = 7 mm`` is read as the starter-notch length a0: it is the only length the
+  table could give for a0, which every plot uses and nothing else defines (the other
   candidate, the spacing of the loading points, would leave a0 undefined).
 * Wm is the distance of each support from the mid-line (half the support spacing), as Fig. 4.1's
   ``2 Wm`` and the scan's "distance of the support from the center line" say; the text's
@@ -25,27 +25,26 @@ Readings adopted
   crack closes there), those of its top and bottom edges and of its edge on the notch's end are
   (it opens onto these boundaries). A zero-width crack needs no mesh size of its own, unlike a
   slot of width ~h, and the geometry does not depend on h.
-* Loading and supports: the earlier finite-element studies the dissertation
-  cites loaded four nodes at the notched end, two on top and two at the supports
-  ``(0, +-Wm, 0)``; the lateral coordinate of the top pair is lost in the PDF. We put the two
-  loading points at ``(0, +-load_offset, T)`` with ``load_offset = notch_width / 2`` by default:
-  the top corners of the notch's mouth, as close to the mid-line as the notch allows, so that
-  the moment arm of each torsion arm, ``Wm - load_offset`` = 16.75 mm, is nearly the Wm of
-  (4.1)-(4.2) (which takes the loading points on the mid-line;
-  :func:`fem3d.torsion_theory.compliance` takes the offset).
-* Boundary conditions, option A (docs/cases.md#double-torsion; the one the case files use): prescribed
-  vertical displacement ``-delta`` at the two loading points, zero vertical displacement at the
-  two supports, the far-end point ``(L, 0, T/2)`` fixed in x, y and z. These remove five of the
-  six rigid motions; the sixth, the rotation about the z axis through the far-end point, moves no
-  point vertically and needs one horizontal constraint more: ``u_x = 0`` at the point
-  ``(L, W/2, T/2)`` (``"far_side"``). Every reaction of the far-end points is exactly zero,
-  in the discrete problem too: the loads are vertical forces at x = 0 only, so the x and y force
-  balances and the moment balance about z leave the three horizontal reactions nothing to
-  carry, and the moment balance about the y axis through the far-end point makes the four
-  vertical reactions at x = 0 sum to zero, so that the far point's vertical one vanishes. The far
-  constraints only fix the rigid position; the compliance is the loading points' displacement
-  over the force they carry. Option B (supports as lines along the whole length) has its node
-  groups too (``"support_lines"``).
+* Loading and supports: the earlier finite-element studies the dissertation cites loaded four
+  nodes at the notched end, two on top and two at the supports ``(0, +-Wm, 0)``; the lateral
+  coordinate of the top pair is lost in the PDF. We put the two loading points at
+  ``(0, +-load_offset, T)`` with ``load_offset = notch_width / 2`` by default: the top corners of the
+  notch's mouth, as close to the mid-line as the notch allows, so that the moment arm of each
+  torsion arm, ``Wm - load_offset`` = 16.75 mm, is nearly the Wm of (4.1)-(4.2) (which takes the
+  loading points on the mid-line; :func:`fem3d.torsion_theory.compliance` takes the offset).
+* Boundary conditions, option A (docs/cases.md#double-torsion; the one the case files use):
+  prescribed vertical displacement ``-delta`` at the two loading points, zero vertical
+  displacement at the two supports, the far-end point ``(L, 0, T/2)`` fixed in x, y and z. These
+  remove five of the six rigid motions; the sixth, the rotation about the z axis through the
+  far-end point, moves no point vertically and needs one horizontal constraint more: ``u_x = 0``
+  at the point ``(L, W/2, T/2)`` (``"far_side"``). Every reaction of the far-end points is
+  exactly zero, in the discrete problem too: the loads are vertical forces at x = 0 only, so the
+  x and y force balances and the moment balance about z leave the three horizontal reactions
+  nothing to carry, and the moment balance about the y axis through the far-end point makes the
+  four vertical reactions at x = 0 sum to zero, so that the far point's vertical one vanishes.
+  The far constraints only fix the rigid position; the compliance is the loading points'
+  displacement over the force they carry. Option B (supports as lines along the whole length)
+  has its node groups too (``"support_lines"``).
 
 Mesh
 ----
@@ -79,10 +78,9 @@ __all__ = ["double_torsion", "SPECIMEN", "TABLE_4_1", "GRADING"]
 TABLE_4_1 = {"L": 80.0, "W": 40.0, "T": 3.0, "Wm": 17.0, "a0": 7.0, "E": 72000.0, "nu": 0.22, "Gc": 0.0068}
 
 #: Growth rate of the edge length away from the strip (length per length). Larger than the
-#: panels' 0.1 (:data:`fem3d.specimens.gmsh_tools.GRADING`): the arms are only 20 mm wide, and the
-#: transition ``(h_coarse - h) / grading`` must fit in them.
+#: panels' 0.1 (:data:`fem3d.specimens.gmsh_tools.GRADING`): the arms are only 20 mm wide,
+#: and the transition ``(h_coarse - h) / grading`` must fit in them.
 GRADING = 0.3
-
 
 #: Defaults of the other scene keys (mm): the notch's width, the explicit crack's length, the
 #: strip's half-width, the buffer layer's thickness, the radius of the gray zones.
