@@ -3,7 +3,7 @@ damage on P1 triangles (plane stress or strain, with a thickness) and tetrahedra
 gmsh, driven by the toolkit's shared engine, solvers, results and command line.
 
 :mod:`~fem3d.kind` registers the kind; :mod:`~fem3d.scene` reads its scenes;
-:mod:`~fem3d.geometry` meshes the experiments' geometries; :mod:`~fem3d.mesh` is the mesh with
+:mod:`~fem3d.specimens` meshes the experiments' specimens; :mod:`~fem3d.mesh` is the mesh with
 its named groups; :mod:`~fem3d.elasticity` and :mod:`~fem3d.damage` are the two operators,
 their Numba kernels in :mod:`~fem3d.kernels`; P2 displacements (``[model] element = "P2"``)
 have :mod:`~fem3d.quadratic` (the nodes), :mod:`~fem3d.quadratic_elasticity` and

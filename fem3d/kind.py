@@ -1,7 +1,7 @@
 """Bulk solids by finite elements as a model kind (``kind = "fem"``).
 
 :data:`KIND` is what :mod:`thinfilm.kinds` finds. It reads ``kind = "fem"`` scenes
-(:mod:`fem3d.scene`), meshes the geometry with gmsh (:mod:`fem3d.geometry`), builds the P1 or
+(:mod:`fem3d.scene`), meshes the specimen with gmsh (:mod:`fem3d.specimens`), builds the P1 or
 P2 elasticity and the damage operator and the boundary conditions, chooses the linear solver, and
 adds to what every run writes the reaction force, the prescribed displacement and the crack
 length of each step, the crack events, and the figures of :mod:`fem3d.plots`.
@@ -9,13 +9,11 @@ length of each step, the crack events, and the figures of :mod:`fem3d.plots`.
 
 from __future__ import annotations
 
-import importlib
-import inspect
 import math
 
 import numpy as np
 
-from fem3d import scene as fem_scene
+from fem3d import scene as fem_scene, specimens
 from thinfilm.run import EvolutionKind, Setup, peak_force_line
 from thinfilm.scene import SceneError
 
@@ -38,28 +36,21 @@ AMG_MIN_DOFS_3D = 20_000
 AMG_OPTIONS = {"strength": ("symmetric", {"theta": 0.0}), "smooth": ("jacobi", {})}
 
 
-def geometry_function(kind):
-    """The function of :data:`fem3d.scene.GEOMETRIES` that meshes geometry ``kind``."""
-    module, name = fem_scene.GEOMETRIES[kind][0].split(":")
-    return getattr(importlib.import_module(module), name)
-
-
 def build_mesh(scene):
-    """The scene's mesh (gmsh, deterministic), with its named groups."""
-    from fem3d import geometry
+    """The scene's mesh (gmsh, deterministic), with its named groups: its specimen's mesh
+    function (:mod:`fem3d.specimens`) with the scene's sizes and ``[geometry]`` keys.
 
+    Raises
+    ------
+    SceneError
+        If a mesh file's dimension is not the model's.
+    """
     g = scene.geometry
-    if g.kind == "file":
-        mesh = geometry.from_file(g.file)
-        if mesh.dim != scene.model.dim:
-            raise SceneError(scene.source, "geometry.file", f"= {g.file!r}: a {mesh.dim}D mesh, but model.dim ="
-                             f" {scene.model.dim}")
-        return mesh
-    function = geometry_function(g.kind)
-    options = dict(g.options)
-    if next(iter(inspect.signature(function).parameters)) == "dim":
-        options["dim"] = scene.model.dim
-    return function(h=scene.mesh.h, h_coarse=scene.mesh.h_coarse, **options)
+    mesh = specimens.get(g.kind).make(scene.model.dim, scene.mesh.h, scene.mesh.h_coarse, g.options)
+    if mesh.dim != scene.model.dim:
+        raise SceneError(scene.source, "geometry.file", f"= {g.file!r}: a {mesh.dim}D mesh, but model.dim ="
+                         f" {scene.model.dim}")
+    return mesh
 
 
 def build_model(scene, mesh):
@@ -113,34 +104,14 @@ def build_model(scene, mesh):
     return FemModel(mesh, elasticity, damage, loads, solver)
 
 
-#: The straight crack front of the 3D geometries whose crack runs through their depth, as
-#: the energy release rate reads it: the geometry function's argument that is the front's
-#: width, and the one that is the starter crack's length (None: the crack starts at a or from
-#: nothing, a0 = 0). A geometry not listed has no such front (the Brokenshire crack is a
-#: twisted surface): its G is not computed. A mesh file's front is taken as its extent in z.
-FRONTS = {"lpanel": ("thickness", None), "double_torsion": ("thickness", "notch")}
-
-
 def crack_front(scene):
     """``(width, a0)`` of the scene's crack front for the energy release rate: 2D, the slab's
-    thickness and 0; 3D, from :data:`FRONTS` and the geometry's options (its function's
-    defaults where the scene gives none); width ``"none"`` if the geometry has no straight
-    front, ``"mesh"`` for a mesh file (its extent in z, read from the results)."""
+    thickness and 0; 3D, from its specimen's record (:attr:`fem3d.specimens.specimen.Specimen.front`)
+    and the scene's ``[geometry]`` keys (the record's defaults where the scene gives none); width
+    ``"none"`` if the specimen has no straight front, ``"mesh"`` for a mesh file (its extent in
+    z, read from the results)."""
     m, g = scene.model, scene.geometry
-    if m.dim == 2:
-        return m.thickness, 0.0
-    if g.kind == "file":
-        return "mesh", 0.0
-    if g.kind not in FRONTS:
-        return "none", 0.0
-    defaults = inspect.signature(geometry_function(g.kind)).parameters
-    options = dict(g.options)
-    width, start = FRONTS[g.kind]
-
-    def value(key):
-        return float(options.get(key, defaults[key].default))
-
-    return value(width), (0.0 if start is None else value(start))
+    return specimens.get(g.kind).crack_front(m.dim, m.thickness, g.options)
 
 
 def release_rate(results):

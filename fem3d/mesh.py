@@ -2,7 +2,7 @@
 finite-element model is built on.
 
 Triangles in 2D, tetrahedra in 3D (P1: the nodes are the vertices). Named groups come from the
-geometry's physical groups (:mod:`fem3d.geometry`) or from a ``.msh`` file:
+geometry's physical groups (:mod:`fem3d.specimens`) or from a ``.msh`` file:
 
 * ``cell_groups``: regions, as cell indices (e.g. ``"gray"``, the coarse region where damage
   is held at 0);

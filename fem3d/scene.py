@@ -22,7 +22,7 @@ the whole slab, not per unit thickness. ::
     element = "P1"          # displacement element: "P1" or "P2" (quadratic; the damage stays P1)
 
     [geometry]
-    kind = "lpanel"         # "lpanel", "three_point_bending" or "file" (with file = "x.msh")
+    kind = "lpanel"         # a specimen of fem3d.specimens, or "file" (with file = "x.msh")
 
     [mesh]
     h = 0.625               # size where the crack may run
@@ -49,37 +49,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from fem3d import specimens
 from fem3d.split import SPLITS
 from thinfilm.scene import SceneError, SolverSettings, Table, read_snapshots, read_solver, require_tables, show
 
-__all__ = ["FemModelParameters", "Geometry", "MeshSizes", "Loading", "FemScene", "parse", "GEOMETRIES"]
+__all__ = ["FemModelParameters", "Geometry", "MeshSizes", "Loading", "FemScene", "parse"]
 
-#: Geometry kinds: the function that meshes each (``"module:function"``, called with ``h``,
-#: ``h_coarse`` and the scene's keys), the model dimensions it makes, and its own scene keys
-#: (all optional, with the function's defaults), each ``key: (type, argument)``. Types:
-#: ``"number"`` (> 0), ``"number>=0"`` (>= 0), ``"numbers:N"`` (a list of N finite numbers),
-#: ``("a", "b")`` (one of these strings). A function whose first parameter is ``dim`` also
-#: receives ``model.dim``.
-GEOMETRIES = {
-    "lpanel": ("fem3d.geometry:lpanel", (2, 3),
-               {"refine": ("numbers:4", "refine"), "window": ("numbers:4", "window"), "load": ("numbers:2", "load"),
-                "near_load": ("number", "near_load"), "depth": ("number", "thickness")}),
-    "three_point_bending": ("fem3d.geometry:three_point_bending", (2,),
-                            {"configuration": (("I", "II"), "configuration"), "refine": ("numbers:4", "refine"),
-                             "notch_width": ("number", "notch_width"), "gray": ("number", "gray")}),
-    "nooru_mohamed": ("fem3d.nooru_mohamed:nooru_mohamed", (2,),
-                      {"refine": ("numbers:4", "refine"), "platen": ("number", "platen"), "arm": ("number", "arm"),
-                       "symmetry": (("none", "half_turn"), "symmetry")}),
-    "brokenshire": ("fem3d.brokenshire:brokenshire", (3,),
-                    {"length": ("number", "length"), "notch_angle": ("number", "notch_angle"),
-                     "notch_depth": ("number", "notch_depth"), "notch_width": ("number", "notch_width"),
-                     "lever": ("number", "lever"), "band": ("number", "refine"), "gray": ("number", "gray")}),
-    "double_torsion": ("fem3d.double_torsion:double_torsion", (3,),
-                       {**{key: ("number", key) for key in ("length", "width", "thickness", "support", "notch",
-                                                            "notch_width", "strip", "grading")},
-                        **{key: ("number>=0", key) for key in ("load_offset", "crack", "buffer", "gray")}}),
-    "file": (None, (2, 3), {"file": ("file", "file")}),
-}
 COMPONENTS = ("x", "y", "z")
 #: Displacement elements (``[model] element``).
 ELEMENTS = ("P1", "P2")
@@ -134,8 +109,18 @@ class FemModelParameters:
 
 @dataclass(frozen=True)
 class Geometry:
-    """``[geometry]``: the kind and its parameters (``options``, as keyword arguments of the
-    geometry's function in :mod:`fem3d.geometry`), or the ``.msh`` file of ``kind = "file"``."""
+    """``[geometry]``: the specimen (:mod:`fem3d.specimens`) and the keys the scene gives.
+
+    Attributes
+    ----------
+    kind : str
+        The specimen's name.
+    options : tuple of (str, object)
+        The keys the scene gives, as ``(argument, value)`` pairs of the specimen's mesh function
+        (sorted; the record's defaults for the others).
+    file : str or None
+        The file a key of the specimen names (the ``.msh`` file of ``kind = "file"``).
+    """
 
     kind: str
     options: tuple = ()
@@ -289,34 +274,38 @@ def _buffers(model):
 
 
 def _geometry(source, data, dim):
-    all_keys = sorted({key for _, _, keys in GEOMETRIES.values() for key in keys})
+    """``[geometry]``, validated from the specimen's record (:class:`fem3d.specimens.specimen.Specimen`)."""
+    records = {name: specimens.get(name) for name in specimens.names()}
+    all_keys = sorted({key.name for record in records.values() for key in record.keys})
     geometry = Table(source, "geometry", data["geometry"], ("kind",) + tuple(all_keys))
-    kind = geometry.choice("kind", tuple(GEOMETRIES))
-    _, dims, keys = GEOMETRIES[kind]
+    kind = geometry.choice("kind", tuple(records))
+    record = records[kind]
+    keys = [key.name for key in record.keys]
     for key in geometry.data:
         if key != "kind" and key not in keys:
             geometry._fail(key, geometry.data[key], f'is not a key of geometry.kind = "{kind}" (its keys:'
                            f' {", ".join(keys)})')
-    if dim not in dims:
-        geometry._fail("kind", kind, f"is a {dims[0]}D geometry (model.dim = {dims[0]})")
-    if kind == "file":
-        return Geometry(kind, file=_path(geometry, "file"))
-    options = {}
-    for key, (kind_of_value, argument) in keys.items():
-        if not geometry.has(key):
-            continue
-        if kind_of_value == "number":
-            options[argument] = geometry.number(key, minimum=0)
-        elif kind_of_value == "number>=0":
-            options[argument] = geometry.number(key, minimum=0, exclusive=False)
-        elif isinstance(kind_of_value, tuple):
-            options[argument] = geometry.choice(key, kind_of_value)
-        else:
-            options[argument] = _numbers(geometry, key, int(kind_of_value.split(":")[1]))
-    if kind == "lpanel" and dim == 2 and "thickness" in options:
-        geometry._fail("depth", options["thickness"], "is the 3D panel's extrusion (model.dim = 3); a 2D"
-                       " panel's thickness is model.thickness")
-    return Geometry(kind, tuple(sorted(options.items())))
+    if dim not in record.dims:
+        geometry._fail("kind", kind, f"is a {record.dims[0]}D geometry (model.dim = {record.dims[0]})")
+    options, file = {}, None
+    for key in record.keys:
+        if key.file:
+            file = options[key.argument] = _path(geometry, key.name)
+        elif geometry.has(key.name):
+            options[key.argument] = _key_value(geometry, key)
+    for key in record.keys:
+        if geometry.has(key.name) and dim not in key.dims:
+            geometry._fail(key.name, options[key.argument], key.note or f"is for {key.dims[0]}D runs only")
+    return Geometry(kind, tuple(sorted(options.items())), file)
+
+
+def _key_value(table, key):
+    """The value of the specimen's ``key`` (:class:`fem3d.specimens.specimen.Key`) in ``table``."""
+    if key.count is not None:
+        return _numbers(table, key.name, key.count)
+    if key.rule.type == "choice":
+        return table.choice(key.name, key.rule.choices)
+    return table.number(key.name, minimum=key.rule.minimum, exclusive=key.rule.exclusive)
 
 
 def _vector(table, key, dim):

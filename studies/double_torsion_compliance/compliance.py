@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fem3d.double_torsion import TABLE_4_1
+from fem3d.specimens.double_torsion import TABLE_4_1
 from studies.double_torsion_compliance.theory_lines import RESULTS, SCAN, WINDOW, classical_slopes, fit
 from thinfilm.scan.table import read_table
 from thinfilm.scene import load_scene

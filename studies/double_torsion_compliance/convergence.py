@@ -33,7 +33,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 from fem3d import torsion_theory as theory
-from fem3d.double_torsion import TABLE_4_1
+from fem3d.specimens.double_torsion import TABLE_4_1
 from studies.double_torsion_compliance.theory_lines import RESULTS, classical_slopes
 from thinfilm.scene import load_scene
 

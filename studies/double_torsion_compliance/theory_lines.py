@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from fem3d import torsion_theory as theory
-from fem3d.double_torsion import TABLE_4_1
+from fem3d.specimens.double_torsion import TABLE_4_1
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCAN = Path(__file__).resolve().parent / "scan"

@@ -37,7 +37,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from fem3d import kernels, split as splits, torsion_theory  # noqa: E402
-from fem3d.double_torsion import TABLE_4_1  # noqa: E402
+from fem3d.specimens.double_torsion import TABLE_4_1  # noqa: E402
 from fem3d.release import energy_release_rate  # noqa: E402
 from thinfilm.results.reader import Results  # noqa: E402
 

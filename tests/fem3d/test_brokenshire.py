@@ -1,5 +1,5 @@
 """Brokenshire's torsion test (dissertation section 3.5.4): the geometry of
-:mod:`fem3d.brokenshire` and coarse runs of ``cases/brokenshire.toml``.
+:mod:`fem3d.specimens.brokenshire` and coarse runs of ``cases/brokenshire.toml``.
 
 The geometry is checked exactly (volumes, areas, where the groups are). The runs check what
 the dissertation reports (FEM_MODEL.md 5.5, qualitative): the crack leaves the notch's floor
@@ -17,7 +17,7 @@ import math
 import numpy as np
 import pytest
 
-from fem3d.brokenshire import ARM, COLLAR, FRAME_LENGTH, SECTION, brokenshire, notch_distance, notch_normal
+from fem3d.specimens.brokenshire import ARM, COLLAR, FRAME_LENGTH, SECTION, brokenshire, notch_distance, notch_normal
 from fem3d.cracks import trace_angles, twist
 from fem3d.plots import crack_sections_figure
 from tests.helpers import load_case

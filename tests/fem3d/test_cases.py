@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from fem3d.cracks import crack_through_depth, crack_tip, holes_reached
-from fem3d.geometry import HOLE_RADIUS, HOLES
+from fem3d.specimens.three_point_bending import HOLE_RADIUS, HOLES
 from tests.helpers import load_case
 from thinfilm.results.reader import Results
 from thinfilm.run import run

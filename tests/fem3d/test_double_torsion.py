@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from fem3d import torsion_theory as theory
-from fem3d.double_torsion import TABLE_4_1, double_torsion
+from fem3d.specimens.double_torsion import TABLE_4_1, double_torsion
 from tests.fem3d.test_geometry import boundary_facets, check_common, edge_lengths, facet_measures, signed_measures
 from tests.helpers import load_case
 

@@ -1,4 +1,5 @@
-"""The gmsh geometries of :mod:`fem3d.geometry`: measures, groups, mesh sizes, orientation,
+"""The gmsh specimens of :mod:`fem3d.specimens.lpanel` and :mod:`fem3d.specimens.three_point_bending`
+and :func:`fem3d.specimens.gmsh_tools.from_file`: measures, groups, mesh sizes, orientation,
 determinism, and the reading of ``.msh`` files.
 
 Meshes are coarse (h = 5 mm for the panel, 0.05 in for the beam) to keep the module fast; the
@@ -13,7 +14,9 @@ import gmsh
 import numpy as np
 import pytest
 
-from fem3d.geometry import HOLE_RADIUS, HOLES, NOTCH_DEPTH, from_file, lpanel, three_point_bending
+from fem3d.specimens.gmsh_tools import from_file
+from fem3d.specimens.lpanel import lpanel
+from fem3d.specimens.three_point_bending import HOLE_RADIUS, HOLES, NOTCH_DEPTH, three_point_bending
 
 T = 100.0  # the panel's thickness (mm)
 

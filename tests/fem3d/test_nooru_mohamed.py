@@ -13,7 +13,7 @@ import pytest
 
 from fem3d.cracks import cracks_from
 from fem3d.kind import build_mesh
-from fem3d.nooru_mohamed import NOTCH_TIPS, NOTCH_WIDTH, nooru_mohamed, platen_area, specimen_area
+from fem3d.specimens.nooru_mohamed import NOTCH_TIPS, NOTCH_WIDTH, nooru_mohamed, platen_area, specimen_area
 from tests.helpers import load_case
 from thinfilm.results.reader import Results
 from thinfilm.run import run

@@ -33,7 +33,7 @@ move apart); with ``notch_angle = 135`` the same load closes it (the gap shrinks
 Sources of the dimensions
 -------------------------
 The dissertation gives none; its Fig. 3.16 keeps only the labels 25, 100, 45 deg, 5, 50, 25,
-delta, 200, 75, 100, 75, 25 (mm) (``FEM_MODEL.md`` section 5.5). Taken from the literature on
+delta, 200, 75, 100, 75, 25 (mm). Taken from the literature on
 Brokenshire's test (D. R. Brokenshire, PhD thesis, Cardiff University, 1996, as re-analysed):
 
 * the prism, 400 mm long with a 100 x 100 mm section: the MoFEM benchmark of the test
@@ -63,10 +63,11 @@ corners would put the lever arm at 50 mm instead of 125 mm and concentrate the s
 the dissertation's gray frame has none. They cost little: about 0.44e6 mm^3 meshed at
 ``h_coarse``, damage held at 0 (the scene's ``buffers = {frame = E_steel}``).
 
-Mesh size: ``h`` (the tetrahedra's median edge, see :data:`fem3d.geometry.TET_EDGE_RATIO`) in
-the band ``|x - length / 2| <= refine`` (the scene's ``band``) over the whole section, where
-the notch is and the crack runs, growing at the rate ``grading`` to ``h_coarse`` elsewhere (the
-module docstring of :mod:`fem3d.geometry`). One gmsh session per call, deterministic.
+Mesh size: ``h`` (the tetrahedra's median edge, see
+:data:`fem3d.specimens.gmsh_tools.TET_EDGE_RATIO`) in the band ``|x - length / 2| <= refine``
+(the scene's ``band``) over the whole section, where the notch is and the crack runs, growing
+at the rate ``grading`` to ``h_coarse`` elsewhere (the module docstring of
+:mod:`fem3d.specimens.gmsh_tools`). One gmsh session per call, deterministic.
 """
 
 from __future__ import annotations
@@ -75,11 +76,12 @@ import math
 
 import numpy as np
 
-from fem3d.geometry import (GRADING, TET_EDGE_RATIO, _box_field, _check_nonnegative, _check_positive,
-                            _check_sizes, _physical, _read_model, _session)
 from fem3d.mesh import Mesh
+from fem3d.specimens.checks import check_nonnegative, check_positive, check_sizes
+from fem3d.specimens.gmsh_tools import GRADING, TET_EDGE_RATIO, box_field, physical, read_model, session
+from fem3d.specimens.specimen import NO_FRONT, Groups, Specimen, number
 
-__all__ = ["brokenshire", "SECTION", "FRAME_LENGTH", "COLLAR", "ARM", "notch_normal", "notch_distance"]
+__all__ = ["brokenshire", "SPECIMEN", "SECTION", "FRAME_LENGTH", "COLLAR", "ARM", "notch_normal", "notch_distance"]
 
 #: Side of the prism's square section (mm).
 SECTION = 100.0
@@ -90,6 +92,17 @@ COLLAR = 12.5
 #: Side of the arms' square section (mm), centred at mid-height.
 ARM = 25.0
 
+#: Defaults of the scene keys (mm, degrees): the prism's length, the notch's angle with the axis,
+#: depth and width, the lever of the load and support points, the half-length of the refined
+#: band, the length of the prism's gray ends.
+LENGTH = 400.0
+NOTCH_ANGLE = 45.0
+NOTCH_DEPTH = 50.0
+NOTCH_WIDTH = 5.0
+LEVER = 125.0
+BAND = 75.0
+GRAY = 75.0
+
 
 def notch_normal(notch_angle):
     """The unit normal (3,) of the notch's mid-plane for ``notch_angle`` (degrees)."""
@@ -97,14 +110,14 @@ def notch_normal(notch_angle):
     return np.array([-math.sin(a), math.cos(a), 0.0])
 
 
-def notch_distance(points, length=400.0, notch_angle=45.0):
+def notch_distance(points, length=LENGTH, notch_angle=NOTCH_ANGLE):
     """Signed distance (mm) of ``points`` (shape (n, >= 2)) from the notch's mid-plane."""
     n = notch_normal(notch_angle)
     return (points[:, 0] - 0.5 * length) * n[0] + points[:, 1] * n[1]
 
 
-def brokenshire(h=6.25, h_coarse=25.0, length=400.0, notch_angle=45.0, notch_depth=50.0, notch_width=5.0,
-                lever=125.0, refine=75.0, gray=75.0, *, grading=GRADING) -> Mesh:
+def brokenshire(h=6.25, h_coarse=25.0, length=LENGTH, notch_angle=NOTCH_ANGLE, notch_depth=NOTCH_DEPTH,
+                notch_width=NOTCH_WIDTH, lever=LEVER, refine=BAND, gray=GRAY, *, grading=GRADING) -> Mesh:
     """The notched prism of Brokenshire's torsion test in its two steel frames, tetrahedra
     (module docstring: coordinates, points, sources).
 
@@ -151,11 +164,11 @@ def brokenshire(h=6.25, h_coarse=25.0, length=400.0, notch_angle=45.0, notch_dep
     ValueError
         Naming the parameter, if a value is out of range.
     """
-    h, h_coarse, grading = _check_sizes(h, h_coarse, grading)
-    length = _check_positive("length", length)
-    notch_angle, notch_depth = float(notch_angle), _check_positive("notch_depth", notch_depth)
-    notch_width, lever = _check_positive("notch_width", notch_width), _check_positive("lever", lever)
-    refine, gray = _check_positive("refine", refine), _check_nonnegative("gray", gray)
+    h, h_coarse, grading = check_sizes(h, h_coarse, grading)
+    length = check_positive("length", length)
+    notch_angle, notch_depth = float(notch_angle), check_positive("notch_depth", notch_depth)
+    notch_width, lever = check_positive("notch_width", notch_width), check_positive("lever", lever)
+    refine, gray = check_positive("refine", refine), check_nonnegative("gray", gray)
     if not (math.isfinite(notch_angle) and 10.0 < notch_angle < 170.0):
         raise ValueError(f"brokenshire: notch_angle = {notch_angle!r} must be in (10, 170) degrees")
     if not notch_depth < SECTION:
@@ -182,7 +195,7 @@ def brokenshire(h=6.25, h_coarse=25.0, length=400.0, notch_angle=45.0, notch_dep
     normal = notch_normal(notch_angle)
     tol = 1e-6 * length
 
-    with _session("brokenshire") as gmsh:
+    with session("brokenshire") as gmsh:
         occ = gmsh.model.occ
         prism = occ.addBox(0.0, -half, 0.0, length, SECTION, SECTION)
         slot_length = 2.0 * (SECTION / abs(math.sin(math.radians(notch_angle))) + notch_width)
@@ -222,8 +235,8 @@ def brokenshire(h=6.25, h_coarse=25.0, length=400.0, notch_angle=45.0, notch_dep
         gmsh.model.addPhysicalGroup(2, notch, name="notch")
         # (the prism's faces inside the collars are interfaces, not boundaries)
         free = (FRAME_LENGTH, length - FRAME_LENGTH)
-        _physical(gmsh, 2, "top", free, (-half, half), (SECTION, SECTION), tol)
-        _physical(gmsh, 2, "bottom", free, (-half, half), (0.0, 0.0), tol)
+        physical(gmsh, 2, "top", free, (-half, half), (SECTION, SECTION), tol)
+        physical(gmsh, 2, "bottom", free, (-half, half), (0.0, 0.0), tol)
         floor_faces = [tag for tag in notch if abs(gmsh.model.getBoundingBox(2, tag)[5] - floor) <= tol]
         gmsh.model.addPhysicalGroup(2, floor_faces, name="notch_floor_faces")
 
@@ -237,10 +250,10 @@ def brokenshire(h=6.25, h_coarse=25.0, length=400.0, notch_angle=45.0, notch_dep
             gmsh.model.mesh.embed(0, [point], 2, faces[0][1])
             gmsh.model.addPhysicalGroup(0, [point], name=name)
 
-        _box_field(gmsh, h, h_coarse, (mid - refine, mid + refine, -half, half), (0.0, SECTION), grading,
+        box_field(gmsh, h, h_coarse, (mid - refine, mid + refine, -half, half), (0.0, SECTION), grading,
                    TET_EDGE_RATIO)
         gmsh.model.mesh.generate(3)
-        mesh = _read_model(gmsh, "brokenshire")
+        mesh = read_model(gmsh, "brokenshire")
 
     facets = dict(mesh.facet_groups)
     nodes = dict(mesh.node_groups)
@@ -252,3 +265,19 @@ def brokenshire(h=6.25, h_coarse=25.0, length=400.0, notch_angle=45.0, notch_dep
     cells["gray"] = np.flatnonzero(in_prism & ((x <= gray) | (x >= length - gray)))
     cells["refined"] = np.flatnonzero(in_prism & (np.abs(x - mid) <= refine))
     return Mesh(mesh.points, mesh.cells, cells, facets, nodes)
+
+
+SPECIMEN = Specimen(
+    name="brokenshire", dims=(3,), mesh=brokenshire,
+    doc="Brokenshire's torsion test (mm): the notched prism `0 <= x <= length`, `-50 <= y <= 50`, `0 <= z <= 100` in"
+        " its two steel frames",
+    keys=(number("length", LENGTH, "the prism's length"),
+          number("notch_angle", NOTCH_ANGLE, "the notch's angle with the axis", units="degree"),
+          number("notch_depth", NOTCH_DEPTH, "the notch's depth from the top face"),
+          number("notch_width", NOTCH_WIDTH, "the notch's width"),
+          number("lever", LEVER, "distance from the axis to the load and support points"),
+          number("band", BAND, "half-length of the refined band about mid-length", argument="refine"),
+          number("gray", GRAY, "length of the prism's ends in the region `gray`")),
+    groups=Groups(cells=("specimen", "frame", "gray", "refined"), facets=("notch", "top", "bottom"),
+                  nodes=("support_a", "support_b", "support_c", "load_point", "notch_floor")),
+    front=NO_FRONT)

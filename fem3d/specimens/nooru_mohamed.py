@@ -9,11 +9,11 @@ Geometry and where each dimension comes from
   labels "25, 5"): ``0 <= x <= 25`` (left) and ``175 <= x <= 200`` (right), both
   ``97.5 <= y <= 102.5``, slots with flat ends; the ligament between their ends is 150 mm.
   Their tips (the middles of the flat ends) are :data:`NOTCH_TIPS`.
-* The thickness, 50 mm, is not in the dissertation (FEM_MODEL 5.4 [R]); it is the
+* The thickness, 50 mm, is not in the dissertation; it is the
   experiment's (Nooru-Mohamed 1992, the dissertation's reference [87]) and a scene key
   (``model.thickness``), not a geometry one.
 * The platens. Fig. 3.12 draws them gray ("rigid") without dimensions. Their layout is the
-  usual one of the 4b test (FEM_MODEL 5.4 [R]): an L-shaped platen glued to the top edge and
+  usual one of the 4b test (docs/cases.md#nooru-mohamed-load-path-4b): an L-shaped platen glued to the top edge and
   to the upper part of the left side, which the shear force and the normal displacement move
   (``"upper_platen"``), and a fixed one glued to the bottom edge and the lower part of the
   right side (``"lower_platen"``). Nooru-Mohamed's thesis and the re-analyses (Bobinski and
@@ -31,32 +31,32 @@ The dissertation's platens are rigid. Here each is an elastic region glued to th
 the concrete's (``[model] buffers = {upper_platen = 3e7, lower_platen = 3e7}``, damage held at
 0 there). A glued body of modulus ``E_b`` deforms, under the tractions the specimen exerts on
 it, ``E / E_b`` times as much as a concrete body of its shape would: the error against rigid
-platens is of order ``E / E_b``. Measured (docs/cases.md#nooru-mohamed-load-path-4b): at
-1000 E the sound specimen is 0.17 % softer than at 1e5 E, its top edge departs from a rigid
-motion by at most 0.5 % of the normal displacement (1.3 % of the shear's motion, at the tip
-of the left arm), the platens hold 8e-4 of the strain energy; all fall as ``1 / E_b``. (With
-10 mm thick platens the arms' tips bent four times as much.) The loads act on the platens'
-outer faces: the shear force on ``"upper_left"``, the normal displacement on
-``"upper_top"``, the lower platen held on ``"lower_bottom"`` and ``"lower_right"``.
+platens is of order ``E / E_b`` (measured: docs/cases.md#nooru-mohamed-load-path-4b). The
+loads act on the platens' outer faces: the shear force on ``"upper_left"``, the normal
+displacement on ``"upper_top"``, the lower platen held on ``"lower_bottom"`` and
+``"lower_right"``.
 
 Mesh
 ----
 Edge length ``h`` in the box ``refine`` (by default the central band 60 <= y <= 140 mm across
 the whole width, where the cracks run from the notches), growing to ``h_coarse`` away from it
-at the rate ``grading`` (:func:`fem3d.geometry._box_field`; see :mod:`fem3d.geometry` on mesh
-size and determinism: the same arguments give the same mesh). ``symmetry = "half_turn"``
-makes a mesh that is its own image by the half-turn about the centre (:func:`nooru_mohamed`).
+at the rate ``grading`` (:func:`fem3d.specimens.gmsh_tools.box_field`; see
+:mod:`fem3d.specimens.gmsh_tools` on mesh size and determinism: the same arguments give the
+same mesh). ``symmetry = "half_turn"`` makes a mesh that is its own image by the half-turn
+about the centre (:func:`nooru_mohamed`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from fem3d.geometry import (GRADING, _box_field, _check_box, _check_positive, _check_sizes, _physical, _read_model,
-                            _session)
 from fem3d.mesh import Mesh
+from fem3d.specimens.checks import check_box, check_positive, check_sizes
+from fem3d.specimens.gmsh_tools import GRADING, box_field, physical, read_model, session
+from fem3d.specimens.specimen import Groups, Specimen, choice, number, numbers
 
-__all__ = ["nooru_mohamed", "platen_area", "specimen_area", "SIDE", "NOTCH_DEPTH", "NOTCH_WIDTH", "NOTCH_TIPS"]
+__all__ = ["nooru_mohamed", "SPECIMEN", "platen_area", "specimen_area", "SIDE", "NOTCH_DEPTH", "NOTCH_WIDTH",
+           "NOTCH_TIPS"]
 
 #: The specimen's side (mm).
 SIDE = 200.0
@@ -67,8 +67,16 @@ NOTCH_WIDTH = 5.0
 NOTCH_TIPS = {"left": (NOTCH_DEPTH, 0.5 * SIDE), "right": (SIDE - NOTCH_DEPTH, 0.5 * SIDE)}
 
 
-def nooru_mohamed(h=0.5, h_coarse=10.0, refine=(0.0, 200.0, 60.0, 140.0), platen=20.0, arm=97.5,
-                  symmetry="none", *, grading=GRADING) -> Mesh:
+#: Defaults of the scene keys (mm): the refined box, the platens' thickness, the length of the
+#: side glued to each platen's arm; the mesh's symmetry.
+REFINE = (0.0, 200.0, 60.0, 140.0)
+PLATEN = 20.0
+ARM = 97.5
+SYMMETRY = "none"
+
+
+def nooru_mohamed(h=0.5, h_coarse=10.0, refine=REFINE, platen=PLATEN, arm=ARM, symmetry=SYMMETRY, *,
+                  grading=GRADING) -> Mesh:
     """The double-edge-notched specimen and its two L-shaped platens (module docstring), in mm.
 
     Parameters
@@ -115,10 +123,10 @@ def nooru_mohamed(h=0.5, h_coarse=10.0, refine=(0.0, 200.0, 60.0, 140.0), platen
     ValueError
         Naming the parameter, if a value is out of range.
     """
-    h, h_coarse, grading = _check_sizes(h, h_coarse, grading)
-    refine = _check_box("refine", refine)
-    p = _check_positive("platen", platen)
-    arm = _check_positive("arm", arm)
+    h, h_coarse, grading = check_sizes(h, h_coarse, grading)
+    refine = check_box("refine", refine)
+    p = check_positive("platen", platen)
+    arm = check_positive("arm", arm)
     L, a, half = SIDE, NOTCH_DEPTH, 0.5 * NOTCH_WIDTH
     low, high = 0.5 * L - half, 0.5 * L + half      # the notches' faces
     if not arm <= low:
@@ -136,22 +144,22 @@ def nooru_mohamed(h=0.5, h_coarse=10.0, refine=(0.0, 200.0, 60.0, 140.0), platen
     lower = [(0.0, -p), (L + p, -p), (L + p, arm), (L, arm), (L, 0.0), (0.0, 0.0)]
     z = (0.0, 0.0)
 
-    with _session("nooru_mohamed") as gmsh:
+    with session("nooru_mohamed") as gmsh:
         geo = gmsh.model.geo
         tags = _surfaces(geo, [specimen, upper, lower])
         geo.synchronize()
         for name, tag in zip(("specimen", "upper_platen", "lower_platen"), tags):
             gmsh.model.addPhysicalGroup(2, [tag], name=name)
         tol = 1e-6 * L
-        _physical(gmsh, 1, "upper_left", (-p, -p), (L - arm, L + p), z, tol)
-        _physical(gmsh, 1, "upper_top", (-p, L), (L + p, L + p), z, tol)
-        _physical(gmsh, 1, "lower_bottom", (0.0, L + p), (-p, -p), z, tol)
-        _physical(gmsh, 1, "lower_right", (L + p, L + p), (-p, arm), z, tol)
-        _physical(gmsh, 1, "notch_left", (0.0, a), (low, high), z, tol)
-        _physical(gmsh, 1, "notch_right", (L - a, L), (low, high), z, tol)
-        _box_field(gmsh, h, h_coarse, refine, z, grading, 1.0)
+        physical(gmsh, 1, "upper_left", (-p, -p), (L - arm, L + p), z, tol)
+        physical(gmsh, 1, "upper_top", (-p, L), (L + p, L + p), z, tol)
+        physical(gmsh, 1, "lower_bottom", (0.0, L + p), (-p, -p), z, tol)
+        physical(gmsh, 1, "lower_right", (L + p, L + p), (-p, arm), z, tol)
+        physical(gmsh, 1, "notch_left", (0.0, a), (low, high), z, tol)
+        physical(gmsh, 1, "notch_right", (L - a, L), (low, high), z, tol)
+        box_field(gmsh, h, h_coarse, refine, z, grading, 1.0)
         gmsh.model.mesh.generate(2)
-        mesh = _read_model(gmsh, "nooru_mohamed")
+        mesh = read_model(gmsh, "nooru_mohamed")
     return mesh
 
 
@@ -170,7 +178,7 @@ def _half_turn(h, h_coarse, refine, p, arm, grading):
     z = (0.0, 0.0)
     turn = [-1.0, 0.0, 0.0, L, 0.0, -1.0, 0.0, L, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]
 
-    with _session("nooru_mohamed") as gmsh:
+    with session("nooru_mohamed") as gmsh:
         geo = gmsh.model.geo
         lines = {}
         tags = _surfaces(geo, [specimen, upper, lower], lines)
@@ -178,18 +186,18 @@ def _half_turn(h, h_coarse, refine, p, arm, grading):
         for name, tag in zip(("specimen", "upper_part", "lower_part"), tags):
             gmsh.model.addPhysicalGroup(2, [tag], name=name)
         tol = 1e-6 * L
-        _physical(gmsh, 1, "upper_left", (-p, -p), (L - arm, L + p), z, tol)
-        _physical(gmsh, 1, "lower_bottom", (0.0, L + p), (-p, -p), z, tol)
-        _physical(gmsh, 1, "notch_left", (0.0, a), (low, high), z, tol)
+        physical(gmsh, 1, "upper_left", (-p, -p), (L - arm, L + p), z, tol)
+        physical(gmsh, 1, "lower_bottom", (0.0, L + p), (-p, -p), z, tol)
+        physical(gmsh, 1, "notch_left", (0.0, a), (low, high), z, tol)
 
         seam = [lines[((L, 0.0), (c, c))], lines[((c, c), (0.0, L))], lines[((L + p, -p), (L, 0.0))],
                 lines[((0.0, L), (-p, L + p))]]
         gmsh.model.mesh.setPeriodic(1, [seam[1]], [seam[0]], turn)
         gmsh.model.mesh.setPeriodic(1, [seam[3]], [seam[2]], turn)
         gmsh.model.addPhysicalGroup(1, seam, name="seam")
-        _box_field(gmsh, h, h_coarse, refine, z, grading, 1.0)
+        box_field(gmsh, h, h_coarse, refine, z, grading, 1.0)
         gmsh.model.mesh.generate(2)
-        part = _read_model(gmsh, "nooru_mohamed")
+        part = read_model(gmsh, "nooru_mohamed")
 
     n = part.n_nodes
     image = L - part.points                       # the half-turn about (L/2, L/2)
@@ -263,3 +271,14 @@ def specimen_area():
     """The specimen's area (mm^2): the square less the two notches."""
     return SIDE * SIDE - 2.0 * NOTCH_DEPTH * NOTCH_WIDTH
 
+
+SPECIMEN = Specimen(
+    name="nooru_mohamed", dims=(2,), mesh=nooru_mohamed,
+    doc="Nooru-Mohamed's double-edge-notched specimen (mm), `0 <= x, y <= 200`, with two L-shaped platens",
+    keys=(numbers("refine", 4, REFINE, "the refined box [x0, x1, y0, y1]"),
+          number("platen", PLATEN, "the platens' thickness"),
+          number("arm", ARM, "the side each platen covers from the specimen's corner"),
+          choice("symmetry", ("none", "half_turn"), SYMMETRY,
+                 "`half_turn`: a mesh that is its own image by the half-turn about the centre")),
+    groups=Groups(cells=("specimen", "upper_platen", "lower_platen"),
+                  facets=("upper_left", "upper_top", "lower_bottom", "lower_right", "notch_left", "notch_right")))

@@ -1,16 +1,16 @@
 """The double-torsion specimen of the dissertation's chapter 4 (Fig. 4.1, Table 4.1), meshed by
 gmsh (OpenCASCADE kernel) in P1 tetrahedra, lengths in mm.
 
-Coordinates (``/work/shared/FEM_MODEL.md`` section 6.1): x along the length, the notched end at
-x = 0 and the far end at x = L; y across the width, the crack plane y = 0; z through the
-thickness, the bottom (supported, tensile near y = 0) face z = 0, the top (loaded, compressed)
-face z = T. The plate is ``0 <= x <= L, -W/2 <= y <= W/2, 0 <= z <= T``.
+Coordinates (docs/cases.md#double-torsion): x along the length, the notched end at x = 0 and the
+far end at x = L; y across the width, the crack plane y = 0; z through the thickness, the bottom
+(supported, tensile near y = 0) face z = 0, the top (loaded, compressed) face z = T. The plate
+is ``0 <= x <= L, -W/2 <= y <= W/2, 0 <= z <= T``.
 
 Readings adopted
 ----------------
-* Dimensions, Table 4.1 (Madjoubi's soda-lime glass, FEM_MODEL 6.3): L = 80, W = 40, T = 3,
-  Wm = 17 mm. The table's ``Ls = 7 mm`` is read as the starter-notch length a0: it is the only
-  length the table could give for a0, which every plot uses and nothing else defines (the other
+* Dimensions, Table 4.1 (Madjoubi's soda-lime glass): L = 80, W = 40, T = 3, Wm = 17 mm. The
+  table's ``Ls = 7 mm`` is read as the starter-notch length a0: it is the only length the
+  table could give for a0, which every plot uses and nothing else defines (the other
   candidate, the spacing of the loading points, would leave a0 undefined).
 * Wm is the distance of each support from the mid-line (half the support spacing), as Fig. 4.1's
   ``2 Wm`` and the scan's "distance of the support from the center line" say; the text's
@@ -25,54 +25,52 @@ Readings adopted
   crack closes there), those of its top and bottom edges and of its edge on the notch's end are
   (it opens onto these boundaries). A zero-width crack needs no mesh size of its own, unlike a
   slot of width ~h, and the geometry does not depend on h.
-* Loading and supports (FEM_MODEL 6.4): the earlier finite-element studies the dissertation
-  cites loaded four nodes at the notched end, two on top and two at the supports
-  ``(0, +-Wm, 0)``; the lateral coordinate of the top pair is lost in the PDF. We put the two
-  loading points at ``(0, +-load_offset, T)`` with ``load_offset = notch_width / 2`` by default:
-  the top corners of the notch's mouth, as close to the mid-line as the notch allows, so that
-  the moment arm of each torsion arm, ``Wm - load_offset`` = 16.75 mm, is nearly the Wm of
-  (4.1)-(4.2) (which takes the loading points on the mid-line;
-  :func:`fem3d.torsion_theory.compliance` takes the offset).
-* Boundary conditions, option A of FEM_MODEL 6.4 (the one the case files use): prescribed
-  vertical displacement ``-delta`` at the two loading points, zero vertical displacement at the
-  two supports, the far-end point ``(L, 0, T/2)`` fixed in x, y and z. These remove five of the
-  six rigid motions; the sixth, the rotation about the z axis through the far-end point, moves no
-  point vertically and needs one horizontal constraint more: ``u_x = 0`` at the point
-  ``(L, W/2, T/2)`` (``"far_side"``). Every reaction of the far-end points is exactly zero,
-  in the discrete problem too: the loads are vertical forces at x = 0 only, so the x and y force
-  balances and the moment balance about z leave the three horizontal reactions nothing to
-  carry, and the moment balance about the y axis through the far-end point makes the four
-  vertical reactions at x = 0 sum to zero, so that the far point's vertical one vanishes. The far
-  constraints only fix the rigid position; the compliance is the loading points' displacement
-  over the force they carry. Option B (supports as lines along the whole length) has its node
-  groups too (``"support_lines"``).
+* Loading and supports: the earlier finite-element studies the dissertation cites loaded four
+  nodes at the notched end, two on top and two at the supports ``(0, +-Wm, 0)``; the lateral
+  coordinate of the top pair is lost in the PDF. We put the two loading points at
+  ``(0, +-load_offset, T)`` with ``load_offset = notch_width / 2`` by default: the top corners of the
+  notch's mouth, as close to the mid-line as the notch allows, so that the moment arm of each
+  torsion arm, ``Wm - load_offset`` = 16.75 mm, is nearly the Wm of (4.1)-(4.2) (which takes the
+  loading points on the mid-line; :func:`fem3d.torsion_theory.compliance` takes the offset).
+* Boundary conditions, option A (docs/cases.md#double-torsion; the one the case files use):
+  prescribed vertical displacement ``-delta`` at the two loading points, zero vertical
+  displacement at the two supports, the far-end point ``(L, 0, T/2)`` fixed in x, y and z. These
+  remove five of the six rigid motions; the sixth, the rotation about the z axis through the
+  far-end point, moves no point vertically and needs one horizontal constraint more: ``u_x = 0``
+  at the point ``(L, W/2, T/2)`` (``"far_side"``). Every reaction of the far-end points is
+  exactly zero, in the discrete problem too: the loads are vertical forces at x = 0 only, so the
+  x and y force balances and the moment balance about z leave the three horizontal reactions
+  nothing to carry, and the moment balance about the y axis through the far-end point makes the
+  four vertical reactions at x = 0 sum to zero, so that the far point's vertical one vanishes.
+  The far constraints only fix the rigid position; the compliance is the loading points'
+  displacement over the force they carry. Option B (supports as lines along the whole length)
+  has its node groups too (``"support_lines"``).
 
 Mesh
 ----
 The strip ``|y| <= strip`` (the whole length and thickness, where the crack runs) is meshed
 with the tetrahedra's median edge ``h``; outside, the edge grows at the rate ``grading`` with
-the distance to the strip up to ``h_coarse`` (:func:`fem3d.geometry._box_field`, with
-:data:`fem3d.geometry.TET_EDGE_RATIO`). The strip's sides and, with ``buffer > 0``, the bottom
-of its top layer are faces of the geometry, so that the cell groups are exact (the mesh
-conforms to them). The torsion arms' shear varies linearly through the thickness: with P1 their
-energy needs ``h_coarse`` a fraction of T (at four tetrahedra through T the compliance slope is
-0.88 of the converged one, at two 0.65; P2 is converged at two), which the compliance study
-measures (``studies/double_torsion_compliance``). The minimum tetrahedron quality (6 sqrt(2)
-volume over the cubed rms edge) is 0.22-0.27 on the meshes tried, except one flat tetrahedron
-in a buffer layer one element thick (h = buffer = 1 mm) crossed by an explicit crack.
+the distance to the strip up to ``h_coarse`` (:func:`fem3d.specimens.gmsh_tools.box_field`,
+with :data:`fem3d.specimens.gmsh_tools.TET_EDGE_RATIO`). The strip's sides and, with
+``buffer > 0``, the bottom of its top layer are faces of the geometry, so that the cell groups
+are exact (the mesh conforms to them). The torsion arms' shear varies linearly through the
+thickness: with P1 their energy needs ``h_coarse`` a fraction of T (measured, with the meshes'
+quality: docs/cases.md#double-torsion).
 
-Determinism as in :mod:`fem3d.geometry` (one gmsh session per call, the same options).
+Determinism as in :mod:`fem3d.specimens.gmsh_tools` (one gmsh session per call, the same
+options).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from fem3d.geometry import (TET_EDGE_RATIO, _box_field, _check_nonnegative, _check_positive, _check_sizes, _read_model,
-                            _session)
 from fem3d.mesh import Mesh
+from fem3d.specimens.checks import check_nonnegative, check_positive, check_sizes
+from fem3d.specimens.gmsh_tools import TET_EDGE_RATIO, box_field, read_model, session
+from fem3d.specimens.specimen import Front, Groups, Specimen, number
 
-__all__ = ["double_torsion", "TABLE_4_1", "GRADING"]
+__all__ = ["double_torsion", "SPECIMEN", "TABLE_4_1", "GRADING"]
 
 #: Table 4.1 (Madjoubi's soda-lime glass), in mm, MPa and N/mm: length L, width W, thickness T,
 #: support distance from the mid-line Wm, starter notch a0 (the table's Ls), Young's modulus E,
@@ -80,14 +78,22 @@ __all__ = ["double_torsion", "TABLE_4_1", "GRADING"]
 TABLE_4_1 = {"L": 80.0, "W": 40.0, "T": 3.0, "Wm": 17.0, "a0": 7.0, "E": 72000.0, "nu": 0.22, "Gc": 0.0068}
 
 #: Growth rate of the edge length away from the strip (length per length). Larger than the
-#: panels' 0.1 (:data:`fem3d.geometry.GRADING`): the arms are only 20 mm wide, and the
-#: transition ``(h_coarse - h) / grading`` must fit in them.
+#: panels' 0.1 (:data:`fem3d.specimens.gmsh_tools.GRADING`): the arms are only 20 mm wide,
+#: and the transition ``(h_coarse - h) / grading`` must fit in them.
 GRADING = 0.3
+
+#: Defaults of the other scene keys (mm): the notch's width, the explicit crack's length, the
+#: strip's half-width, the buffer layer's thickness, the radius of the gray zones.
+NOTCH_WIDTH = 0.5
+CRACK = 0.0
+STRIP = 3.0
+BUFFER = 0.0
+GRAY = 2.0
 
 
 def double_torsion(h=0.5, h_coarse=1.0, length=TABLE_4_1["L"], width=TABLE_4_1["W"], thickness=TABLE_4_1["T"],
-                   support=TABLE_4_1["Wm"], load_offset=None, notch=TABLE_4_1["a0"], notch_width=0.5, crack=0.0,
-                   strip=3.0, buffer=0.0, gray=2.0, *, grading=GRADING) -> Mesh:
+                   support=TABLE_4_1["Wm"], load_offset=None, notch=TABLE_4_1["a0"], notch_width=NOTCH_WIDTH,
+                   crack=CRACK, strip=STRIP, buffer=BUFFER, gray=GRAY, *, grading=GRADING) -> Mesh:
     """The double-torsion plate with its starter notch and an optional explicit straight crack.
 
     Parameters
@@ -115,8 +121,8 @@ def double_torsion(h=0.5, h_coarse=1.0, length=TABLE_4_1["L"], width=TABLE_4_1["
         Half-width (mm) of the refined strip around y = 0, ``< width / 2``.
     buffer : float
         Thickness (mm) of the strip's top layer ``z >= T - buffer, x >= notch`` (beyond the
-        notch, so that the loading points stay on the specimen's own material; the buffer layer of
-        FEM_MODEL 1.5, the dissertation's T/3 or T/4); 0: no such layer.
+        notch, so that the loading points stay on the specimen's own material; the dissertation's
+        buffer layer, T/3 or T/4 thick); 0: no such layer.
     gray : float
         Radius (mm) of the ``"gray"`` zones around the four loading and support points.
     grading : float
@@ -137,24 +143,24 @@ def double_torsion(h=0.5, h_coarse=1.0, length=TABLE_4_1["L"], width=TABLE_4_1["
           ``"load_plus"``, ``"load_minus"`` (each alone), ``"supports"`` (``(0, +-Wm, 0)``),
           ``"support_plus"``, ``"support_minus"``, ``"far_end"`` (``(L, 0, T/2)``),
           ``"far_side"`` (``(L, W/2, T/2)``), ``"support_lines"`` (the nodes of the bottom lines
-          ``y = +-Wm``, ``0 <= x <= L``: FEM_MODEL 6.4's option B).
+          ``y = +-Wm``, ``0 <= x <= L``: option B, supports as lines).
 
     Raises
     ------
     ValueError
         Naming the parameter, if a value is out of range.
     """
-    h, h_coarse, grading = _check_sizes(h, h_coarse, grading)
-    L, W, T = (_check_positive(name, v) for name, v in (("length", length), ("width", width),
+    h, h_coarse, grading = check_sizes(h, h_coarse, grading)
+    L, W, T = (check_positive(name, v) for name, v in (("length", length), ("width", width),
                                                           ("thickness", thickness)))
-    Wm = _check_positive("support", support)
-    a0 = _check_positive("notch", notch)
-    nw = _check_positive("notch_width", notch_width)
-    a = _check_nonnegative("crack", crack)
-    strip = _check_positive("strip", strip)
-    buffer = _check_nonnegative("buffer", buffer)
-    gray = _check_nonnegative("gray", gray)
-    lo = 0.5 * nw if load_offset is None else _check_nonnegative("load_offset", load_offset)
+    Wm = check_positive("support", support)
+    a0 = check_positive("notch", notch)
+    nw = check_positive("notch_width", notch_width)
+    a = check_nonnegative("crack", crack)
+    strip = check_positive("strip", strip)
+    buffer = check_nonnegative("buffer", buffer)
+    gray = check_nonnegative("gray", gray)
+    lo = 0.5 * nw if load_offset is None else check_nonnegative("load_offset", load_offset)
     if not Wm < 0.5 * W:
         raise ValueError(f"double_torsion: support = {Wm!r} must be < width / 2 = {0.5 * W!r}")
     if not strip < 0.5 * W:
@@ -175,7 +181,7 @@ def double_torsion(h=0.5, h_coarse=1.0, length=TABLE_4_1["L"], width=TABLE_4_1["
     points = {"load_plus": (0.0, lo, T), "load_minus": (0.0, -lo, T), "support_plus": (0.0, Wm, 0.0),
               "support_minus": (0.0, -Wm, 0.0), "far_end": (L, 0.0, 0.5 * T), "far_side": (L, 0.5 * W, 0.5 * T)}
 
-    with _session("double_torsion") as gmsh:
+    with session("double_torsion") as gmsh:
         occ = gmsh.model.occ
         # The plate cut into the strip, the arms and the buffer layer (faces of the geometry
         # where the groups meet), then the notch removed from all of them.
@@ -236,11 +242,11 @@ def double_torsion(h=0.5, h_coarse=1.0, length=TABLE_4_1["L"], width=TABLE_4_1["
         lines = inside(1, (0.0, L), (Wm, Wm), (0.0, 0.0)) + inside(1, (0.0, L), (-Wm, -Wm), (0.0, 0.0))
         model.addPhysicalGroup(1, lines, name="support_lines")
 
-        _box_field(gmsh, h, h_coarse, (0.0, L, -strip, strip), (0.0, T), grading, TET_EDGE_RATIO)
+        box_field(gmsh, h, h_coarse, (0.0, L, -strip, strip), (0.0, T), grading, TET_EDGE_RATIO)
         model.mesh.generate(3)
         if a > 0.0:
             _open_crack(gmsh, a0, a, T, tol)
-        mesh = _read_model(gmsh, "double_torsion")
+        mesh = read_model(gmsh, "double_torsion")
 
     centroids = mesh.points[mesh.cells].mean(axis=1)
     near = np.zeros(mesh.n_cells, dtype=bool)
@@ -290,3 +296,28 @@ def _crack_lips(mesh, a0, a, tol):
     lips = boundary[on]
     side = mesh.points[cells[owner[lips]]].mean(axis=1)[:, 1]
     return {"crack_plus": faces[lips[side > 0.0]], "crack_minus": faces[lips[side < 0.0]]}
+
+
+SPECIMEN = Specimen(
+    name="double_torsion", dims=(3,), mesh=double_torsion,
+    doc="the double-torsion plate of the dissertation's chapter 4 (mm), `0 <= x <= length`, `-width/2 <= y <= width/2`,"
+        " `0 <= z <= thickness`, with a starter notch along y = 0 and an optional explicit straight crack",
+    keys=(number("length", TABLE_4_1["L"], "L, the plate's length"),
+          number("width", TABLE_4_1["W"], "W, the plate's width"),
+          number("thickness", TABLE_4_1["T"], "T, the plate's thickness"),
+          number("support", TABLE_4_1["Wm"], "Wm, each support's distance from the mid-line"),
+          number("notch", TABLE_4_1["a0"], "a0, the starter notch's length"),
+          number("notch_width", NOTCH_WIDTH, "the notch slot's width"),
+          number("strip", STRIP, "half-width of the strip about y = 0 meshed at `h`"),
+          number("grading", GRADING, "growth rate of the edge length away from the strip", units=""),
+          number("load_offset", None, "the loading points' distance from the mid-line (default `notch_width / 2`)",
+                 exclusive=False),
+          number("crack", CRACK, "a, the explicit straight crack's length beyond the notch (0: none)", exclusive=False),
+          number("buffer", BUFFER, "thickness of the strip's top layer, the region `buffer` (0: none)",
+                 exclusive=False),
+          number("gray", GRAY, "radius of the region `gray` about the loading and support points", exclusive=False)),
+    groups=Groups(cells=("strip", "arms", "buffer", "gray"),
+                  facets=("top", "bottom", "notch", "end", "crack_plus", "crack_minus"),
+                  nodes=("load_points", "load_plus", "load_minus", "supports", "support_plus", "support_minus",
+                         "far_end", "far_side", "support_lines")),
+    front=Front(width="thickness", start="notch"))
