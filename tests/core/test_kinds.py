@@ -2,7 +2,7 @@
 toolkit's scene reader, engine, results file, XDMF index, figures and command line.
 
 None of these modules knows the bar (``tests/core/test_imports.py`` checks that the core
-imports no kind); the kind registers itself and gets everything a film run gets, on a 1D
+imports no kind); the kind is registered and gets everything a film run gets, on a 1D
 mesh instead of a grid, with an observable of its own (the axial force).
 """
 
