@@ -22,7 +22,7 @@ Scene::
     [solver]          # the engine's options, as for every kind (docs/scenes.md#solver)
     backtrack = "standard"
     [output]          # optional
-    snapshots = [1.0, 2.0, 3.0]
+    snapshots = [1.0, 1.5, 3.0]
 """
 
 from __future__ import annotations
