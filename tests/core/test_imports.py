@@ -9,7 +9,11 @@ inside functions, which run later but still tie two modules together), and:
   top of ``thinfilm``) imports no model kind (``thinfilm.plate``, ``thinfilm.exact1d``): it
   finds them through :mod:`thinfilm.kinds` by name, so a new kind needs no change to it;
 * the engine and the solvers import nothing of the generic layer above them (scenes,
-  results, plots, the command line).
+  results, plots, the command line);
+* the installed packages import nothing of ``examples`` or ``tests`` (neither is installed);
+* no module of the tests imports a test module (``test_*.py``): what tests share lives in
+  helper modules (``tests/helpers.py``, ``tests/fem3d/meshes.py``...), so a test file holds
+  its own tests and what only they use.
 """
 
 from __future__ import annotations
@@ -139,3 +143,49 @@ def test_engine_and_solvers_sit_below_the_generic_layer(graph):
             above = [t for t in targets if not t.startswith(("thinfilm.engine", "thinfilm.solvers", "thinfilm.options"))
                      and t.startswith("thinfilm")]
             assert not above, f"{name} imports {above}"
+
+
+def imported_names(source, name, is_package=False):
+    """Every module name an ``import`` of ``source`` (the module ``name``) may load, absolute.
+
+    ``import a.b`` gives ``a.b``; ``from a import b, c`` gives ``a``, ``a.b`` and ``a.c`` (``b``
+    may be a module or a name of ``a``); relative imports are resolved against ``name``.
+    """
+    out = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            out.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = name.split(".") if is_package else name.split(".")[:-1]
+                anchor = anchor[: len(anchor) - (node.level - 1)]
+                base = ".".join(anchor + ([base] if base else []))
+            out.add(base)
+            out.update(f"{base}.{alias.name}" for alias in node.names)
+    return out
+
+
+def test_the_import_reader_resolves_relative_and_from_imports():
+    source = "import os.path\nfrom tests.fem3d import test_model\nfrom .checks import rel_diff\n"
+    names = imported_names(source, "tests.fem3d.test_split")
+    assert {"os.path", "tests.fem3d", "tests.fem3d.test_model", "tests.fem3d.checks.rel_diff"} <= names
+    assert "tests.fem3d.checks" in names
+
+
+def test_the_installed_packages_import_no_examples_and_no_tests():
+    for name, path in modules().items():
+        found = imported_names(path.read_text(encoding="utf-8"), name, path.name == "__init__.py")
+        outside = sorted(t for t in found if t.split(".")[0] in ("examples", "tests"))
+        assert not outside, f"{name} imports {outside}"
+
+
+def test_no_test_module_imports_another():
+    """Nor does a helper module or a conftest import a test module."""
+    files = sorted((ROOT / "tests").rglob("*.py"))
+    assert sum(path.name.startswith("test_") for path in files) > 20
+    for path in files:
+        name = module_name(path)
+        found = imported_names(path.read_text(encoding="utf-8"), name, path.name == "__init__.py")
+        others = sorted(t for t in found if t.startswith("tests.") and t.split(".")[-1].startswith("test_"))
+        assert not others, f"{name} imports {others}: move what they share into a helper module"

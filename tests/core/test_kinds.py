@@ -1,22 +1,25 @@
-"""A new model kind is one registered folder: the AT1 bar of ``tests/engine`` run through the
+"""A new model kind is one registered folder: the AT1 bar of ``examples/bar`` run through the
 toolkit's scene reader, engine, results file, XDMF index, figures and command line.
 
 None of these modules knows the bar (``tests/core/test_imports.py`` checks that the core
-imports no kind); the kind registers itself and gets everything a film run gets, on a 1D
+imports no kind); the kind is registered and gets everything a film run gets, on a 1D
 mesh instead of a grid, with an observable of its own (the axial force).
 """
 
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 import xml.etree.ElementTree as ET
 
 import h5py
 import numpy as np
 import pytest
 
-from tests.engine.bar import Bar
-from tests.engine.bar_kind import BarKind
+from examples.bar.kind import BarKind
+from examples.bar.model import Bar
+from tests.helpers import ROOT
 from thinfilm import kinds
 from thinfilm.cli import main
 from thinfilm.scene import SceneError, parse_scene
@@ -102,3 +105,35 @@ def test_the_generic_outputs_work_for_the_new_kind(bar_run, capsys):
     assert "kind = bar" in out and "mesh: 1D, 101 nodes, 100 segments" in out and "steps finished: 16 of 16" in out
     assert main(["plot", str(bar_run), "--t", "0.5", "3.0", "--animate"]) == 0
     assert (bar_run / "alpha.gif").stat().st_size > 0
+
+
+def test_the_example_scene_runs_as_a_user_runs_it(tmp_path):
+    """``examples/bar/bar.toml`` through ``python -m examples.bar run`` (the kind registered,
+    then ``thinfilm``'s own command line), in a process of its own as a user starts it from
+    the repository's root; the results file read back: the elastic steps' force, one crack
+    between the Griffith load and ``t_c``, and ``info`` on the run."""
+    out = tmp_path / "bar"
+    command = [sys.executable, "-m", "examples.bar", "run", "examples/bar/bar.toml", "--out", str(out), "--quiet"]
+    # From the root, ``python -m`` finds ``examples`` (and an uninstalled toolkit) there.
+    done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    bar = Bar(ell=0.05, n=200)
+    with h5py.File(out / "results.h5") as f:
+        assert f.attrs["kind"] == "bar" and f["mesh/cells"].shape == (200, 2)
+        parameters = dict(f["parameters"].attrs)
+        assert parameters.pop("snapshots").tolist() == [1.0, 1.5, 3.0]
+        assert parameters == {"L": 1.0, "E": 1.0, "Gc": 1.0, "ell": 0.05, "elements": 200, "t_max": 3.0, "steps": 30}
+        t, force = f["steps/t"][()], f["steps/force"][()]
+        alpha = f["fields/alpha"][()]
+    np.testing.assert_array_equal(t, np.arange(31) / 10)
+    elastic = alpha.max(axis=1) == 0.0
+    np.testing.assert_allclose(force[elastic], (1.0 + bar.k_res) * bar.E * t[elastic] / bar.L, rtol=1e-12)
+    first = np.argmax(~elastic)
+    assert elastic[:first].all() and not elastic[first:].any()
+    assert np.sqrt(2 * bar.L * bar.Gc_weak / bar.E) <= t[first] <= bar.critical_load()
+    assert np.argmax(alpha[-1]) == bar.m
+    for name in ("summary.json", "energy.png", "alpha_snapshots.png", "results.xdmf"):
+        assert (out / name).stat().st_size > 0, name
+    info = subprocess.run([sys.executable, "-m", "examples.bar", "info", str(out)], cwd=ROOT, capture_output=True,
+                          text=True, timeout=600)
+    assert info.returncode == 0 and "steps finished: 31 of 31" in info.stdout, info.stderr

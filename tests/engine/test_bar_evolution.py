@@ -1,4 +1,4 @@
-"""The evolution engine on a model that is not the plate: the 1D AT1 bar of ``bar.py``.
+"""The evolution engine on a model that is not the plate: the 1D AT1 bar of ``examples/bar/model.py``.
 
 A bar ``(0, L)`` pulled by its end (``u(L) = t``), AT1 damage, P1 elements, a weak band of
 toughness ``Gc_w = 0.9 Gc`` around ``L / 2``. Its evolution has closed forms:
@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.engine.bar import Bar
+from examples.bar.model import Bar
 from thinfilm.engine import AltMinOptions, BacktrackOptions, Engine, SearchOptions, StepRecord
 
 EPS = np.finfo(float).eps

@@ -16,7 +16,9 @@ from skfem.models.poisson import laplace, mass
 from fem3d import kernels
 from fem3d.damage import P1Damage
 from fem3d.elasticity import Elasticity
-from tests.fem3d.test_elasticity import fitted_order, rel_diff, small_mesh, solve, to_skfem, tri_mesh
+from tests.fem3d.checks import fitted_order, rel_diff
+from tests.fem3d.meshes import small_mesh, to_skfem, tri_mesh
+from tests.fem3d.solves import solve
 from thinfilm.solvers.boxqp import solve_box_qp
 
 E, NU = 3.0, 0.3

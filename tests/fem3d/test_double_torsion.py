@@ -16,7 +16,7 @@ import pytest
 
 from fem3d import torsion_theory as theory
 from fem3d.specimens.double_torsion import TABLE_4_1, double_torsion
-from tests.fem3d.test_geometry import boundary_facets, check_common, edge_lengths, facet_measures, signed_measures
+from tests.fem3d.checks import boundary_facets, check_common, edge_lengths, facet_measures, signed_measures
 from tests.helpers import load_case
 
 L, W, T, WM, A0 = (TABLE_4_1[k] for k in ("L", "W", "T", "Wm", "a0"))

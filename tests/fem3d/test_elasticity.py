@@ -2,19 +2,18 @@
 references and against scikit-fem, the patch test, convergence to a manufactured solution,
 plane stress against plane strain, reactions as the derivative of the energy.
 
-Meshes are built here: structured triangulations with diagonals alternating from row to row
-(every interior node has six triangles) and Kuhn tetrahedralizations (six tetrahedra per cube
-around its main diagonal), optionally with the interior nodes jittered.
+Meshes are built by :mod:`tests.fem3d.meshes`: structured triangulations with diagonals
+alternating from row to row (every interior node has six triangles) and Kuhn
+tetrahedralizations (six tetrahedra per cube around its main diagonal), optionally with the
+interior nodes jittered.
 """
 
 from __future__ import annotations
 
 import math
-from itertools import permutations
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 import skfem
 from skfem.helpers import ddot, div, sym_grad
@@ -24,6 +23,10 @@ from skfem.refdom import RefTet, RefTri
 from fem3d import kernels
 from fem3d.elasticity import Elasticity, lame_parameters
 from fem3d.mesh import Mesh
+from tests.fem3d.checks import fitted_order, force_and_moment, rel_diff
+from tests.fem3d.manufactured import PH2, PH3, W2, W3, body_force, exact_fields
+from tests.fem3d.meshes import small_mesh, tet_mesh, to_skfem, tri_mesh
+from tests.fem3d.solves import solve
 
 E, NU = 3.0, 0.3
 MODELS = [(2, "stress"), (2, "strain"), (3, None)]
@@ -31,71 +34,6 @@ MODEL_IDS = ["plane-stress", "plane-strain", "3d"]
 
 
 # --- meshes ------------------------------------------------------------------------------------
-
-def tri_mesh(nx, ny, lx=1.0, ly=1.0, x0=0.0, y0=0.0, jitter=0.0, seed=0):
-    """``nx * ny`` rectangles of ``[x0, x0 + lx] x [y0, y0 + ly]``, two triangles each, the
-    diagonal direction alternating from row to row; interior nodes moved by up to
-    ``jitter / 2`` cell sizes in each direction."""
-    x = x0 + np.linspace(0.0, lx, nx + 1)
-    y = y0 + np.linspace(0.0, ly, ny + 1)
-    X, Y = np.meshgrid(x, y)
-    points = np.column_stack([X.ravel(), Y.ravel()])
-    i, j = (a.ravel() for a in np.meshgrid(np.arange(nx), np.arange(ny)))
-    bl = j * (nx + 1) + i
-    br, tl = bl + 1, bl + nx + 1
-    tr = tl + 1
-    up = (j % 2 == 0)[:, None]
-    t1 = np.where(up, np.column_stack([bl, br, tr]), np.column_stack([bl, br, tl]))
-    t2 = np.where(up, np.column_stack([bl, tr, tl]), np.column_stack([br, tr, tl]))
-    cells = np.stack([t1, t2], axis=1).reshape(-1, 3)
-    return _jittered(points, cells, np.array([lx / nx, ly / ny]), jitter, seed)
-
-
-def tet_mesh(n, lengths=(1.0, 1.0, 1.0), jitter=0.0, seed=0):
-    """Kuhn tetrahedralization of ``n[0] x n[1] x n[2]`` boxes of ``[0, lengths]``: each box
-    split into the six tetrahedra ``0 -> e_p -> e_p + e_q -> (1, 1, 1)``."""
-    n = np.broadcast_to(np.asarray(n), (3,))
-    axes = [np.linspace(0.0, lengths[k], n[k] + 1) for k in range(3)]
-    X, Y, Z = np.meshgrid(*axes, indexing="ij")
-    points = np.column_stack([X.ravel(order="F"), Y.ravel(order="F"), Z.ravel(order="F")])
-
-    def node(i, j, k):
-        return i + (n[0] + 1) * (j + (n[1] + 1) * k)
-
-    i, j, k = (a.ravel(order="F") for a in np.meshgrid(*(np.arange(m) for m in n), indexing="ij"))
-    cells = []
-    for perm in permutations(range(3)):
-        v = np.zeros(3, dtype=int)
-        verts = [node(i, j, k)]
-        for p in perm:
-            v[p] += 1
-            verts.append(node(i + v[0], j + v[1], k + v[2]))
-        cells.append(np.column_stack(verts))
-    cells = np.stack(cells, axis=1).reshape(-1, 4)
-    h = np.asarray(lengths) / n
-    return _jittered(points, cells, h, jitter, seed)
-
-
-def _jittered(points, cells, h, jitter, seed):
-    if jitter:
-        lo, hi = points.min(axis=0), points.max(axis=0)
-        interior = np.all((points > lo + 1e-12) & (points < hi - 1e-12), axis=1)
-        rng = np.random.default_rng(seed)
-        points = points.copy()
-        points[interior] += jitter * h * (rng.random((interior.sum(), points.shape[1])) - 0.5)
-    # positive orientation, as fem3d.mesh.Mesh promises
-    edges = points[cells[:, 1:]] - points[cells[:, :1]]
-    neg = np.linalg.det(edges) < 0
-    cells = cells.copy()
-    cells[neg, 1], cells[neg, 2] = cells[neg, 2].copy(), cells[neg, 1].copy()
-    edges = points[cells[:, 1:]] - points[cells[:, :1]]
-    assert np.all(np.linalg.det(edges) > 0)
-    return Mesh(points, cells)
-
-
-def small_mesh(dim, jitter=0.3):
-    return tri_mesh(6, 5, 1.2, 0.9, jitter=jitter) if dim == 2 else tet_mesh((3, 3, 2), (1.0, 0.8, 0.7), jitter=jitter)
-
 
 def boundary_nodes(mesh):
     """Nodes on the faces of the mesh's bounding box."""
@@ -122,11 +60,6 @@ def smooth_alpha(mesh, amplitude=0.9):
 
 # --- scikit-fem references ----------------------------------------------------------------------
 
-def to_skfem(mesh):
-    cls = skfem.MeshTri if mesh.dim == 2 else skfem.MeshTet
-    return cls(mesh.points.T.copy(), mesh.cells.T.copy())
-
-
 def skfem_stiffness(mesh, lam, mu, coef, thickness=1.0):
     """The full stiffness matrix with a P0 coefficient, by scikit-fem."""
     m = to_skfem(mesh)
@@ -141,12 +74,6 @@ def skfem_stiffness(mesh, lam, mu, coef, thickness=1.0):
         return w["g"] * (lam * div(u) * div(v) + 2.0 * mu * ddot(sym_grad(u), sym_grad(v)))
 
     return thickness * skfem.asm(form, basis, g=g).tocsr()
-
-
-def rel_diff(A, B):
-    A = A.toarray() if sp.issparse(A) else np.asarray(A)
-    B = B.toarray() if sp.issparse(B) else np.asarray(B)
-    return float(np.abs(A - B).max() / np.abs(B).max())
 
 
 # --- kernels -------------------------------------------------------------------------------------
@@ -303,20 +230,6 @@ def test_expand_and_validation():
 
 # --- patch test and equilibrium ------------------------------------------------------------------
 
-def solve(el, alpha, u_d, f=None):
-    u_f = spla.spsolve(el.matrix(alpha).tocsc(), el.rhs(alpha, u_d, f))
-    return el.expand(u_f, u_d)
-
-
-def force_and_moment(points, dim, dofs, r):
-    """Resultant force and moment (about the origin) of nodal forces ``r`` on ``dofs``."""
-    F = np.zeros((points.shape[0], dim))
-    F.reshape(-1)[dofs] = r
-    if dim == 2:
-        return F.sum(axis=0), np.array([np.sum(points[:, 0] * F[:, 1] - points[:, 1] * F[:, 0])])
-    return F.sum(axis=0), np.cross(points, F).sum(axis=0)
-
-
 @pytest.mark.parametrize("dim,plane", MODELS, ids=MODEL_IDS)
 def test_patch(dim, plane):
     """A linear displacement imposed on the boundary nodes of a jittered mesh is reproduced
@@ -435,41 +348,6 @@ def test_reaction_is_energy_derivative(dim, plane):
 
 # --- convergence to a manufactured solution ------------------------------------------------------
 
-# u_k(x) = prod_j sin(W[k, j] x_j + PH[k, j]) on the unit square or cube
-W2 = np.pi * np.array([[1.0, 0.7], [0.6, 1.3]])
-PH2 = np.array([[0.2, 0.5], [0.9, 0.1]])
-W3 = np.pi * np.array([[0.9, 0.6, 0.5], [0.5, 1.1, 0.7], [0.8, 0.4, 1.0]])
-PH3 = np.array([[0.2, 0.5, 0.3], [0.9, 0.1, 0.6], [0.4, 0.7, 0.2]])
-
-
-def exact_fields(x, W, PH):
-    """``u`` (n, d), ``grad u`` (n, d, d) (``[k, j] = du_k/dx_j``) and ``H`` (n, d, d, d)
-    (``[k, i, j] = d^2 u_k / dx_i dx_j``) of the product-of-sines field at points ``x``."""
-    d = x.shape[1]
-    arg = x[:, None, :] * W[None] + PH[None]  # (n, k, j)
-    s, c = np.sin(arg), np.cos(arg)
-    u = s.prod(axis=2)
-    grad = np.empty((x.shape[0], d, d))
-    H = np.empty((x.shape[0], d, d, d))
-    for j in range(d):
-        others = np.prod(np.delete(s, j, axis=2), axis=2)
-        grad[:, :, j] = W[:, j] * c[:, :, j] * others
-        H[:, :, j, j] = -W[:, j] ** 2 * u
-        for i in range(d):
-            if i != j:
-                rest = np.prod(np.delete(s, [i, j], axis=2), axis=2) if d == 3 else 1.0
-                H[:, :, i, j] = W[:, i] * W[:, j] * c[:, :, i] * c[:, :, j] * rest
-    return u, grad, H
-
-
-def body_force(x, W, PH, lam, mu):
-    """``f = -div sigma(u) = -(lam + mu) grad(div u) - mu lap u``."""
-    _, _, H = exact_fields(x, W, PH)
-    grad_div = np.einsum("nkik->ni", H)
-    lap = np.einsum("nkii->nk", H)
-    return -(lam + mu) * grad_div - mu * lap
-
-
 def quadrature_points(mesh, order=4):
     """Physical quadrature points (n_cells, q, d), weights (n_cells, q) and barycentric
     coordinates (q, d + 1) of a rule exact to ``order`` (scikit-fem's tables)."""
@@ -504,10 +382,6 @@ def manufactured_errors(mesh, plane):
     density = el.lam * np.einsum("eqaa->eq", de) ** 2 + 2.0 * el.mu * np.einsum("eqab,eqab->eq", de, de)
     energy = math.sqrt(np.sum(wq * density))
     return l2, energy
-
-
-def fitted_order(h, err):
-    return float(np.polyfit(np.log(h), np.log(err), 1)[0])
 
 
 @pytest.mark.parametrize("dim,plane", MODELS, ids=MODEL_IDS)

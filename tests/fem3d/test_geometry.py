@@ -17,52 +17,12 @@ import pytest
 from fem3d.specimens.gmsh_tools import from_file
 from fem3d.specimens.lpanel import lpanel
 from fem3d.specimens.three_point_bending import HOLE_RADIUS, HOLES, NOTCH_DEPTH, three_point_bending
+from tests.fem3d.checks import check_common, edge_lengths, facet_measures, signed_measures
 
 T = 100.0  # the panel's thickness (mm)
 
 
 # --- helpers -------------------------------------------------------------------------------------
-
-def signed_measures(mesh):
-    """Signed areas (2D) or volumes (3D) of the cells."""
-    edges = mesh.points[mesh.cells[:, 1:]] - mesh.points[mesh.cells[:, :1]]
-    return np.linalg.det(edges) / math.factorial(mesh.dim)
-
-
-def edge_lengths(mesh):
-    """Lengths of every cell's edges, shape (n_cells, number of edges of a cell)."""
-    k = mesh.dim + 1
-    pairs = [(i, j) for i in range(k) for j in range(i + 1, k)]
-    p = mesh.points[mesh.cells]
-    return np.stack([np.linalg.norm(p[:, i] - p[:, j], axis=1) for i, j in pairs], axis=1)
-
-
-def boundary_facets(mesh):
-    """The facets (sorted vertex tuples) that belong to one cell only."""
-    k = mesh.dim + 1
-    faces = np.concatenate([np.delete(mesh.cells, i, axis=1) for i in range(k)])
-    faces, counts = np.unique(np.sort(faces, axis=1), axis=0, return_counts=True)
-    return {tuple(f) for f in faces[counts == 1]}
-
-
-def facet_measures(mesh, facets):
-    """Lengths (2D) or areas (3D) of ``facets``."""
-    p = mesh.points[facets]
-    if mesh.dim == 2:
-        return np.linalg.norm(p[:, 1] - p[:, 0], axis=1)
-    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-
-
-def check_common(mesh):
-    """Positive orientation, every node in a cell, every facet group on the boundary."""
-    assert mesh.points.shape[1] == mesh.dim
-    assert np.all(signed_measures(mesh) > 0.0)
-    assert np.array_equal(np.unique(mesh.cells), np.arange(mesh.n_nodes))
-    boundary = boundary_facets(mesh)
-    for name, facets in mesh.facet_groups.items():
-        assert facets.shape[1] == mesh.dim and len(facets) > 0, name
-        assert {tuple(f) for f in np.sort(facets, axis=1)} <= boundary, name
-
 
 def same_mesh(a, b):
     """Bit-identical arrays and groups."""

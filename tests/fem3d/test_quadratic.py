@@ -27,8 +27,9 @@ from fem3d.quadratic import (FACET_SHARES, LOCAL_EDGES, STIFFNESS_RULES, Quadrat
                              collapsed_gauss)
 from fem3d.quadratic_elasticity import QuadraticElasticity
 from fem3d.scene import Loading
-from tests.fem3d.test_elasticity import (PH2, PH3, W2, W3, body_force, exact_fields, force_and_moment, tet_mesh,
-                                        tri_mesh)
+from tests.fem3d.checks import force_and_moment
+from tests.fem3d.manufactured import PH2, PH3, W2, W3, body_force, exact_fields
+from tests.fem3d.meshes import tet_mesh, tri_mesh
 from tests.helpers import CASES, ROOT, load_case
 from thinfilm.scene import SceneError, parse_scene
 

@@ -13,8 +13,8 @@ from fem3d.damage import P1Damage
 from fem3d.elasticity import Elasticity, lame_parameters
 from fem3d.model import FemModel, Loads
 from fem3d.scene import Loading
-from tests.fem3d.test_elasticity import small_mesh
-from tests.fem3d.test_model import EPS, GC, K_RES, E, H, L, NU, T, strip_mesh
+from tests.fem3d.meshes import small_mesh
+from tests.fem3d.strip import EPS, GC, K_RES, E, H, L, NU, T, strip_mesh
 from tests.helpers import load_case
 from thinfilm.engine import Engine
 from thinfilm.scene import SceneError

@@ -3,7 +3,7 @@
 The engine (:mod:`thinfilm.engine.evolution`) knows nothing of grids or meshes. A model is
 any object with the attributes and methods of :class:`FractureModel`; the finite-difference
 film (:class:`thinfilm.plate.model.PlateModel`) is one, a finite-element solid another, and
-the test suite drives the engine with a 1D bar of its own (``tests/engine/bar.py``).
+``examples/bar/model.py`` the smallest, a 1D bar written to be copied (``examples/README.md``).
 
 Four hooks are optional, each a protocol of its own that the engine recognizes with
 ``isinstance`` (they are ``runtime_checkable``):

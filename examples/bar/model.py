@@ -1,5 +1,12 @@
-"""A 1D AT1 bar in tension, P1 finite elements: a model of the evolution engine that is not the plate.
+"""A 1D AT1 bar in tension, P1 finite elements: a model of the evolution engine.
 
+This module is the model half of the example (``examples/README.md`` walks through it): an
+object with the attributes and methods of :class:`thinfilm.engine.protocol.FractureModel`,
+and nothing else of the toolkit. The engine drives it; :mod:`examples.bar.kind` turns it into
+a model kind that scenes can name.
+
+The bar
+-------
 The bar ``(0, L)`` (Young's modulus ``E``, unit cross-section) is pulled by its end,
 ``u(0) = 0`` and ``u(L) = t`` (displacement control, proportional to ``t``). Its energy is
 
@@ -19,18 +26,19 @@ each element, ``Gc_e``. The integrals are evaluated element by element:
   = 3/(8 ell) sum_i W_i alpha_i`` with ``W_i = sum_{e ni i} Gc_e h / 2``;
 * gradient term: the exact P1 integral, ``3/8 ell sum_e Gc_e (alpha_{i+1} - alpha_i)^2 / h``.
 
+The weak band
+-------------
 The weak spot is a band ``|x - L/2| < band`` (element midpoints; default ``band = 3 ell``)
 of toughness ``Gc_w = weakness Gc`` (default 0.9 Gc), in both surface terms. In the
 homogeneous state every node has the continuum's damage threshold (see
 :meth:`Bar.critical_load`), so damage first appears in the band, and the band is wide
 enough for the AT1 softening to make that state unstable at once (modes wider than about
 ``2.6 ell`` are), so it snaps into one crack. The crack's profile ``(1 - |x - L/2| /
-(2 ell))^2`` fits in the band, so it costs ``Gc_w`` in the continuum. (A single weak node,
-``Gc_m = 0.9 Gc`` in the local term only, was tried first: it is a defect of size ``O(h)``,
-the damage it starts at ``L sqrt(3 Gc_m / (8 E ell))`` stays ``O(h)`` and stable, and the bar
-only snapped at the bulk threshold ``L sqrt(3 Gc / (8 E ell))``: within 0.4% of it with
-n = 200 and 400, ell = 0.05, on a load grid of step 0.26%.)
+(2 ell))^2`` fits in the band, so it costs ``Gc_w`` in the continuum. A defect of one node
+does not do this (examples/README.md#why-a-weak-band).
 
+The damage problem
+------------------
 With ``A`` and ``b`` below, ``E(u, alpha) = 1/2 alpha.A.alpha - b.alpha + E(u, 0)`` exactly:
 
     A = diag(2 c) + 3/4 ell sum_e Gc_e K_e,      b_i = 2 c_i - 3 W_i / (8 ell),
@@ -38,7 +46,8 @@ With ``A`` and ``b`` below, ``E(u, alpha) = 1/2 alpha.A.alpha - b.alpha + E(u, 0
 ``K_e = (1/h) [[1, -1], [-1, 1]]`` the P1 stiffness of element ``e`` (free ends). ``A`` is
 symmetric with positive diagonal, and positive definite as soon as some strain is non-zero
 (the gradient term alone vanishes on constants; at ``t = 0``, ``b < 0`` and the box QP's
-answer ``alpha = lower`` needs no solve).
+answer ``alpha = lower`` needs no solve). The engine minimizes this quadratic over the box
+``lower <= alpha <= 1`` (``lower``: the damage of the previous step, irreversibility).
 """
 
 from __future__ import annotations
@@ -47,9 +56,25 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+__all__ = ["Bar", "g"]
+
 
 def g(alpha, k_res):
-    """AT1 stiffness degradation ``(1 - alpha)^2 + k_res``."""
+    """AT1 stiffness degradation ``(1 - alpha)^2 + k_res``.
+
+    Parameters
+    ----------
+    alpha : ndarray
+        Damage, any shape, in [0, 1].
+    k_res : float
+        Residual stiffness: a broken element keeps ``k_res`` of its stiffness, so that the
+        u-problem stays non-singular.
+
+    Returns
+    -------
+    ndarray
+        The same shape as ``alpha``.
+    """
     return (1.0 - alpha) ** 2 + k_res
 
 
@@ -59,14 +84,15 @@ class Bar:
     Parameters
     ----------
     L, E, Gc, ell : float
-        Length, Young's modulus, toughness outside the weak band, regularization length.
+        Length, Young's modulus, toughness outside the weak band, regularization length
+        (any consistent units; the energies are per unit cross-section).
     n : int
         Number of elements (even: the middle ``L/2`` is the node ``m = n / 2``).
     k_res : float
         Residual stiffness. The default, 1e-8, keeps the floor it sets to the elastic
         energy of a crack, about ``E k_res t^2 / (4 h)`` (two elements of stiffness
-        ``k_res``), well below the ``O(h)`` elastic energy the discrete crack keeps for
-        ``h >= L / 800``; with 1e-6 that floor was already most of it at ``n = 800``.
+        ``k_res``), well below the ``O(h)`` elastic energy the discrete crack keeps
+        (examples/README.md#why-k_res-is-1e-8).
     weakness : float
         Toughness of the weak band relative to ``Gc`` (``0 < weakness <= 1``).
     band : float, optional
@@ -87,11 +113,21 @@ class Bar:
     m : int
         Index of the middle node.
     n_alpha : int
-        Number of damage unknowns (``n + 1``, the ends included).
+        Number of damage unknowns (``n + 1``, the ends included). Protocol attribute.
     proportional : bool
-        True: the load is ``u(L) = t``.
+        True: the load is ``u(L) = t``, so at fixed damage ``u`` scales with ``t``.
+        Protocol attribute (backtracking compares states moved along the load with it).
     toughness : float
-        ``Gc`` (the engine scales its search threshold by it).
+        ``Gc`` (the engine scales its search threshold by it). Protocol attribute.
+    b_surface : ndarray, shape (n + 1,)
+        The linear part of the surface energy, ``3 W_i / (8 ell)``.
+    A_surface : scipy.sparse.csr_matrix, shape (n + 1, n + 1)
+        The quadratic part of the surface energy, ``3/4 ell sum_e Gc_e K_e``.
+
+    Raises
+    ------
+    ValueError
+        If ``n`` is odd or ``weakness`` is not in (0, 1].
     """
 
     def __init__(self, L=1.0, E=1.0, Gc=1.0, ell=0.05, n=200, k_res=1e-8, weakness=0.9, band=None):
@@ -109,23 +145,44 @@ class Bar:
         self.Gc_weak = weakness * self.Gc
         midpoints = 0.5 * (self.x[:-1] + self.x[1:])
         self.Gc_elements = np.where(np.abs(midpoints - 0.5 * self.L) < self.band, self.Gc_weak, self.Gc)
+        # What the engine reads of every model (FractureModel's attributes).
         self.n_alpha = n + 1
         self.proportional = True
         self.toughness = self.Gc
-        #: The linear part of the surface energy, ``3 W_i / (8 ell)``.
+        # The surface energy does not depend on u: its two parts are built once here, and
+        # each damage problem only adds the elastic part.
         self.b_surface = 3.0 / (8.0 * self.ell) * self._to_nodes(0.5 * self.h * self.Gc_elements)
-        #: The quadratic part of the surface energy, ``3/4 ell sum_e Gc_e K_e`` (independent of u).
         self.A_surface = 0.75 * self.ell * self._assemble_stiffness(self.Gc_elements / self.h)
 
     def _to_nodes(self, per_element):
-        """``sum_{e ni i} q_e`` at each node: an element quantity shared by its two nodes."""
+        """``sum_{e ni i} q_e`` at each node: an element quantity shared by its two nodes.
+
+        Parameters
+        ----------
+        per_element : ndarray, shape (n,)
+
+        Returns
+        -------
+        ndarray, shape (n + 1,)
+        """
         nodal = np.zeros(self.n + 1)
         nodal[:-1] += per_element
         nodal[1:] += per_element
         return nodal
 
     def _assemble_stiffness(self, k):
-        """``sum_e k_e [[1, -1], [-1, 1]]`` on all nodes (tridiagonal, CSR)."""
+        """``sum_e k_e [[1, -1], [-1, 1]]`` on all nodes.
+
+        Parameters
+        ----------
+        k : ndarray, shape (n,)
+            The stiffness of each element.
+
+        Returns
+        -------
+        scipy.sparse.csr_matrix, shape (n + 1, n + 1)
+            Tridiagonal, free ends.
+        """
         return sp.diags([-k, self._to_nodes(k), -k], [-1, 0, 1], format="csr")
 
     # -- closed forms -------------------------------------------------------------------
@@ -137,12 +194,26 @@ class Bar:
         ``b_i = h/2 sum_{e ni i} (E (t/L)^2 - 3 Gc_e / (8 ell))`` (``g'(0) = -2``; ``k_res``
         does not enter): element by element the continuum's threshold, first exceeded at
         the nodes whose elements are all in the weak band.
+
+        Returns
+        -------
+        float
+            ``t_c``, a displacement of the end (the unit of ``L``).
         """
         return self.L * np.sqrt(3.0 * self.Gc_weak / (8.0 * self.E * self.ell))
 
     # -- the FractureModel protocol -----------------------------------------------------
     def element_stiffness(self, alpha):
-        """``g_e``: the mean of ``g`` at the two nodes of each element, shape (n,)."""
+        """``g_e``: the mean of ``g`` at the two nodes of each element.
+
+        Parameters
+        ----------
+        alpha : ndarray, shape (n + 1,)
+
+        Returns
+        -------
+        ndarray, shape (n,)
+        """
         g_nodes = g(alpha, self.k_res)
         return 0.5 * (g_nodes[:-1] + g_nodes[1:])
 
@@ -150,8 +221,22 @@ class Bar:
         """Displacement at all nodes minimizing the energy at fixed ``alpha``.
 
         A sparse direct solve of the tridiagonal system of the inner nodes, with
-        ``u_0 = 0`` and ``u_n = t``; ``u0`` and ``rtol`` (for iterative solvers) are not
-        needed.
+        ``u_0 = 0`` and ``u_n = t``.
+
+        Parameters
+        ----------
+        alpha : ndarray, shape (n + 1,)
+            Damage.
+        t : float
+            Load: the displacement of the end ``x = L``.
+        u0 : ndarray, optional
+            The engine's warm start (the last ``u``): for iterative solvers, not needed here.
+        rtol : float, optional
+            The tolerance the engine asks of iterative solvers; a direct solve ignores it.
+
+        Returns
+        -------
+        ndarray, shape (n + 1,)
         """
         K = self._assemble_stiffness(self.E * self.element_stiffness(alpha) / self.h)
         u = np.zeros(self.n + 1)
@@ -162,24 +247,72 @@ class Bar:
         return u
 
     def strain_weights(self, u):
-        """``c_i = sum_{e ni i} E h u'_e^2 / 4``: the elastic energy is ``sum_i c_i g(alpha_i)``."""
+        """``c_i = sum_{e ni i} E h u'_e^2 / 4``: the elastic energy is ``sum_i c_i g(alpha_i)``.
+
+        Parameters
+        ----------
+        u : ndarray, shape (n + 1,)
+
+        Returns
+        -------
+        ndarray, shape (n + 1,)
+        """
         strain = np.diff(u) / self.h
         return self._to_nodes(0.25 * self.E * self.h * strain**2)
 
     def damage_problem(self, u, t):
-        """``(A, b)`` with ``E(u, alpha) = 1/2 alpha.A.alpha - b.alpha + E(u, 0)``."""
+        """The energy at fixed ``u`` as a quadratic in ``alpha``.
+
+        ``g(alpha_i) = 1 - 2 alpha_i + alpha_i^2 + k_res``, so ``sum_i c_i g(alpha_i)`` gives
+        ``diag(2 c)`` to ``A`` and ``2 c`` to ``b``; the surface energy gives the rest.
+
+        Parameters
+        ----------
+        u : ndarray, shape (n + 1,)
+        t : float
+            Load (the quadratic does not depend on it beyond ``u``).
+
+        Returns
+        -------
+        A : scipy.sparse.csr_matrix, shape (n + 1, n + 1)
+            Symmetric, an M-matrix, positive definite once some strain is non-zero.
+        b : ndarray, shape (n + 1,)
+            With ``E(u, alpha) = 1/2 alpha.A.alpha - b.alpha + E(u, 0)``.
+        """
         c = self.strain_weights(u)
         A = (sp.diags(2.0 * c) + self.A_surface).tocsr()
         b = 2.0 * c - self.b_surface
         return A, b
 
     def energies(self, u, alpha, t):
-        """Elastic energy ``sum_e E h g_e u'_e^2 / 2`` and surface energy."""
+        """Elastic energy ``sum_e E h g_e u'_e^2 / 2`` and surface energy.
+
+        Parameters
+        ----------
+        u, alpha : ndarray, shape (n + 1,)
+        t : float
+            Load (the energies depend on it only through ``u``).
+
+        Returns
+        -------
+        elastic, surface : float
+            Energies per unit cross-section (the unit of ``E L``).
+        """
         strain = np.diff(u) / self.h
         elastic = 0.5 * self.E * self.h * float(np.sum(self.element_stiffness(alpha) * strain**2))
         surface = float(self.b_surface @ alpha) + 0.5 * float(alpha @ (self.A_surface @ alpha))
         return elastic, surface
 
     def trial_states(self, u, alpha, t):
-        """No nucleation trials: the weak band starts the crack."""
+        """No nucleation trials: the weak band starts the crack.
+
+        The optional :class:`thinfilm.engine.protocol.TrialStates` hook; an empty list is a
+        valid answer, so the nucleation search can be switched on for this model and finds
+        nothing to try.
+
+        Returns
+        -------
+        list
+            Empty.
+        """
         return []
