@@ -2,7 +2,7 @@
 :mod:`fem3d.specimens.brokenshire` and coarse runs of ``cases/brokenshire.toml``.
 
 The geometry is checked exactly (volumes, areas, where the groups are). The runs check what
-the dissertation reports (FEM_MODEL.md 5.5, qualitative): the crack leaves the notch's floor
+the dissertation reports (qualitative; docs/cases.md#brokenshire-torsion): the crack leaves the notch's floor
 and, running down the ligament, twists. The measure of twist is the trace of the broken set
 (alpha >= 0.9) on horizontal sections (:func:`fem3d.cracks.trace_angles`): the notch is at 45
 degrees to the axis; below it the trace turns towards 90 degrees, more near the side faces than

@@ -1,5 +1,5 @@
 """The double-torsion specimen (dissertation chapter 4): its mesh and groups, the classical
-formulas (4.1)-(4.4) against FEM_MODEL 6.2-6.3's numbers, and the elastic compliance of the
+formulas (4.1)-(4.4) against (4.1)-(4.4) and Table 4.1, and the elastic compliance of the
 case file against the two-torsion-bar model.
 
 Meshes are coarse (h = 1.5 mm, two tetrahedra through the 3 mm thickness) to keep the module
@@ -117,7 +117,7 @@ def test_bad_arguments_are_refused():
 # --- the classical model -------------------------------------------------------------------------
 
 def test_fuller_psi_against_the_table():
-    # FEM_MODEL 6.2: psi(T/W), psi(2T/W) for W/T = 9 ... 12 and Madjoubi's 13.33
+    # (4.3)-(4.4) (docs/model.md#double-torsion): psi(T/W), psi(2T/W) for W/T = 9 ... 12 and Madjoubi's 13.33
     table = {9: (0.9300, 0.8600), 10: (0.9370, 0.8740), 11: (0.9427, 0.8854), 12: (0.9475, 0.8950),
              40 / 3: (0.9527, 0.9055)}
     for ratio, (printed, arm) in table.items():
@@ -128,7 +128,7 @@ def test_fuller_psi_against_the_table():
 
 
 def test_table_4_1_slopes_and_critical_load():
-    # FEM_MODEL 6.3, in mm, N, MPa: dC/da = 2.72e-5 1/N (Fuller 2.86e-5, 3.00e-5); P = 38.7 N
+    # Table 4.1, in mm, N, MPa: dC/da = 2.72e-5 1/N (Fuller 2.86e-5, 3.00e-5); P = 38.7 N
     # at G = Gc (Fuller 37.8, 36.9 N)
     args = (E, NU, W, T, WM)
     assert theory.compliance_slope(*args) == pytest.approx(2.72e-5, rel=2e-3)
@@ -149,7 +149,7 @@ def test_table_4_1_slopes_and_critical_load():
 
 
 def test_scan_geometries_classical_loads():
-    # FEM_MODEL 6.6: L = 1, E = Gc = 1, nu = 0.22, Wm = 0.45 W; P at G = 1 for W/T = 9 ... 12
+    # Fig. 4.12's plates: L = 1, E = Gc = 1, nu = 0.22, Wm = 0.45 W; P at G = 1 for W/T = 9 ... 12
     expected = {2: (5.07e-3, 4.11e-3, 3.39e-3, 2.85e-3), 3: (2.76e-3, 2.24e-3, 1.85e-3, 1.55e-3)}
     for ratio, loads in expected.items():
         width = 1.0 / ratio
@@ -250,7 +250,7 @@ def test_scan_resolution_compliance_approaches_the_torsion_bars():
 def test_p2_compliance_is_fuller_2t_over_w_and_above_p1(coarse):
     # P2 on the coarse test's mesh (1.5 min): its linear strains resolve the arms' torsion
     # through the thickness, and the slope is the converged one (P2 at h = 1 mm: 0.1% more),
-    # 0.993 of Fuller's psi(2T/W) slope (FEM_MODEL 10: P2 within 10% of the Fuller value), 1.10
+    # 0.993 of Fuller's psi(2T/W) slope (the acceptance: P2 within 10% of the Fuller value), 1.10
     # of (4.1): the elastic specimen follows the 2T/W reading. P1 on the same mesh is below it.
     C = [elastic_compliance({"mesh.h": 1.5, "mesh.h_coarse": 1.5, "geometry.crack": a, "model.element": "P2"})[0]
          for a in (MID_LENGTH[0], MID_LENGTH[-1])]

@@ -1,5 +1,5 @@
 """Nooru-Mohamed's tension-shear test, load path 4b (dissertation section 3.5.3): the specimen
-and its platens (fem3d/nooru_mohamed.py), the crack leaving each notch (fem3d.cracks.cracks_from),
+and its platens (fem3d/specimens/nooru_mohamed.py), the crack leaving each notch (fem3d.cracks.cracks_from),
 and the case file on a coarse mesh (docs/cases.md#nooru-mohamed-load-path-4b).
 """
 
