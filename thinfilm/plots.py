@@ -25,6 +25,7 @@ Kinds that record a force against a prescribed displacement draw it with
 from __future__ import annotations
 
 import contextlib
+import os
 
 from pathlib import Path
 
@@ -49,6 +50,37 @@ DPI = 130
 SNAPSHOTS = 5
 #: Most frames of alpha.gif; longer runs are subsampled evenly (first and last step kept).
 MAX_FRAMES = 100
+
+
+def partial_path(path):
+    """The temporary name a file is written under before it is renamed into place: hidden, in
+    the same folder (a rename within one file system is atomic), with the same suffix (which
+    tells matplotlib and Pillow the format)."""
+    path = Path(path)
+    return path.with_name(f".{path.stem}.partial{path.suffix}")
+
+
+def save_figure(fig, path, dpi=None):
+    """Write ``fig`` to ``path`` under :func:`partial_path`, then rename it: a run killed while
+    it draws leaves the previous figure or the new one, never a truncated file.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path : str or Path
+        The figure's file; its suffix gives the format.
+    dpi : float, optional
+        Default :data:`DPI`.
+
+    Returns
+    -------
+    Path
+    """
+    path = Path(path)
+    partial = partial_path(path)
+    fig.savefig(partial, dpi=DPI if dpi is None else dpi)
+    os.replace(partial, path)
+    return path
 
 
 def snapshot_steps(t, loads=None, count=SNAPSHOTS):
@@ -258,7 +290,7 @@ def _image_figure(res, steps, field, values, title):
 def _draw_images(res, steps, field, values, path, title):
     """Write :func:`_image_figure` to ``path``."""
     fig = _image_figure(res, steps, field, values, title)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -344,7 +376,7 @@ def force_displacement_figure(res, outdir, events=(), reference=None, xlabel="pr
     # above the second x axis' ticks and label, if there is one
     ax.set_title(f"{title}{progress_note(res)}", fontsize=10, pad=6 if physical is None else 40)
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -366,7 +398,7 @@ def _draw_curves(res, steps, field, values, path, title):
     ax.set_ylabel(_label(res, field))
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8, loc="best")
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -407,7 +439,7 @@ def _energies(res, outdir):
     ax.set_ylabel(_label(res, "energy"))
     ax.set_title(f"energies: {_model_title(res)}{progress_note(res)}", fontsize=10)
     ax.legend()
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -431,7 +463,7 @@ def _iterations(res, outdir):
     ax.set_title(f"solver work per step: {int(steps['iterations'].sum())} iterations,"
                  f" {int(steps['u_solves'].sum())} u-solves{progress_note(res)}", fontsize=10)
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -474,7 +506,8 @@ def _animate(res, outdir, max_frames=MAX_FRAMES, fps=10):
     title = ax.set_title(f"damage at t = {res.t[frames[0]]:{tw}.4f} (step {frames[0]:{kw}d} of {last})",
                          fontsize=10, family="monospace")
     writer = PillowWriter(fps=fps)
-    with writer.saving(fig, str(path), dpi=90):
+    partial = partial_path(path)
+    with writer.saving(fig, str(partial), dpi=90):
         for i, k in enumerate(frames):
             show(k)
             title.set_text(f"damage at t = {res.t[k]:{tw}.4f} (step {k:{kw}d} of {last})")
@@ -484,6 +517,7 @@ def _animate(res, outdir, max_frames=MAX_FRAMES, fps=10):
                 # each frame once instead of twice.
                 fig.set_layout_engine(None)
     plt.close(fig)
+    os.replace(partial, path)
     return path
 
 

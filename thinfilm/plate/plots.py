@@ -30,7 +30,7 @@ from thinfilm.plate.loads import contact_radius
 from thinfilm.plate.results import crack_events
 from thinfilm.plate.units import file_scales
 from thinfilm.plots import (DPI, force_displacement_figure, image_extent, line_figure, plt, progress_note,
-                            secondary_si_axis, si_prefix)
+                            save_figure, secondary_si_axis, si_prefix)
 
 __all__ = ["force_figure", "cracks_figure", "contact_circle", "crack_metrics_figure", "crack_pattern_figure", "toughness_figure"]
 
@@ -100,7 +100,7 @@ def cracks_figure(res, outdir):
     ax.set_xlabel("load t")
     ax.set_ylabel("crack position x (L)" + (" on y = 0" if res.dim == 2 else ""))
     ax.set_title(f"cracks (local maxima of alpha > 0.9){progress_note(res)}", fontsize=10)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -131,7 +131,7 @@ def toughness_figure(res, outdir):
         ax.set_ylabel("y (L)")
         fig.colorbar(image, ax=ax, label="G/a", shrink=0.9)
     ax.set_title(title, fontsize=9)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -186,7 +186,7 @@ def crack_metrics_figure(res, outdir):
     axes[-1].set_xlim(0.0, max(res.t_max, res.t[-1]))
     axes[-1].set_xlabel("load t")
     axes[0].set_title(f"crack metrics at {len(t)} step(s){progress_note(res)}", fontsize=10)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -244,6 +244,6 @@ def crack_pattern_figure(res, outdir):
     parts = last.describe().split("; ")
     title = f"t = {last.t:.4g} (step {last.step}): {parts[0]}\n{parts[1]}" + "".join(f"\n{p}" for p in parts[2:])
     fig.suptitle(title + progress_note(res), fontsize=8, y=1.0 - 0.08 / H, va="top")
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
