@@ -45,6 +45,12 @@ from thinfilm.results.reader import Results, ResultsError, open_results  # noqa:
 ALPHA_CMAP = "magma_r"
 #: Deflection: diverging about u = 0, so that its sign reads at a glance.
 U_CMAP = "RdBu_r"
+#: The two halves of :data:`U_CMAP`, for a field that is never positive or never negative:
+#: blue to white and white to red, so one colour means one sign in every figure.
+U_HALF_CMAPS = (matplotlib.colors.LinearSegmentedColormap.from_list(
+                    "u_negative", matplotlib.colormaps[U_CMAP](np.linspace(0.0, 0.5, 128))),
+                matplotlib.colors.LinearSegmentedColormap.from_list(
+                    "u_positive", matplotlib.colormaps[U_CMAP](np.linspace(0.5, 1.0, 128))))
 DPI = 130
 #: Default number of snapshots, evenly spread over the finished steps.
 SNAPSHOTS = 5
@@ -58,6 +64,25 @@ def partial_path(path):
     tells matplotlib and Pillow the format)."""
     path = Path(path)
     return path.with_name(f".{path.stem}.partial{path.suffix}")
+
+
+def unclip_markers(fig):
+    """Let the markers of every line whose points all lie within its axes' limits be drawn
+    whole: a marker on a limit (the first step at t = 0, a curve's peak at the top) is
+    otherwise cut in half by the frame. Lines that run past the limits stay clipped."""
+    for ax in fig.axes:
+        (x0, x1), (y0, y1) = sorted(ax.get_xlim()), sorted(ax.get_ylim())
+        for line in ax.get_lines():
+            if line.get_marker() in (None, "None", "none", "", " "):
+                continue
+            try:
+                x = np.asarray(line.get_xdata(), dtype=float)
+                y = np.asarray(line.get_ydata(), dtype=float)
+            except (TypeError, ValueError):  # not numbers (dates, categories): left as drawn
+                continue
+            x, y = x[np.isfinite(x) & np.isfinite(y)], y[np.isfinite(x) & np.isfinite(y)]
+            if x.size and x.min() >= x0 and x.max() <= x1 and y.min() >= y0 and y.max() <= y1:
+                line.set_clip_on(False)
 
 
 def save_figure(fig, path, dpi=None):
@@ -78,12 +103,13 @@ def save_figure(fig, path, dpi=None):
     """
     path = Path(path)
     partial = partial_path(path)
+    unclip_markers(fig)
     fig.savefig(partial, dpi=DPI if dpi is None else dpi)
     os.replace(partial, path)
     return path
 
 
-def snapshot_steps(t, loads=None, count=SNAPSHOTS):
+def snapshot_steps(t, loads=None, count=SNAPSHOTS, first=0):
     """Finished steps to draw: the nearest to each requested load, or ``count`` spread evenly.
 
     Parameters
@@ -94,8 +120,10 @@ def snapshot_steps(t, loads=None, count=SNAPSHOTS):
         Requested loads. Each selects the finished step of nearest t, so a load beyond the
         last finished step (a run that stopped early) selects the last one.
     count : int, optional
-        Without ``loads``: this many steps evenly spread from the first to the last finished
-        one (all of them if fewer have finished).
+        Without ``loads``: this many steps evenly spread from step ``first`` to the last
+        finished one (all of them if fewer have finished).
+    first : int, optional
+        Without ``loads``: the first step that may be drawn (clipped to the finished ones).
 
     Returns
     -------
@@ -106,7 +134,8 @@ def snapshot_steps(t, loads=None, count=SNAPSHOTS):
     if len(t) == 0:
         return np.empty(0, dtype=int)
     if loads is None or len(loads) == 0:
-        steps = np.rint(np.linspace(0, len(t) - 1, min(count, len(t)))).astype(int)
+        first = min(max(int(first), 0), len(t) - 1)
+        steps = np.rint(np.linspace(first, len(t) - 1, min(count, len(t) - first))).astype(int)
     else:
         steps = np.array([int(np.argmin(np.abs(t - float(load)))) for load in loads], dtype=int)
     return np.unique(steps)
@@ -187,11 +216,23 @@ def _abscissa(d):
 
 
 def _colour_range(field, values):
-    """Shared colour (or y) range of a figure: [0, 1] for damage, symmetric about 0 for u."""
+    """Shared colour (or y) range of a figure and its colour map: [0, 1] for damage; for u,
+    symmetric about 0 with a diverging map where it takes both signs, and from 0 to its
+    extreme with the matching half of that map where it keeps one sign (a film pressed down
+    by an indenter is never deflected up: half a symmetric scale would stay unused)."""
     if field == "alpha":
         return 0.0, 1.0, ALPHA_CMAP
-    m = float(np.max(np.abs(values))) if np.size(values) else 0.0
-    m = m if m > 0.0 and np.isfinite(m) else 1.0  # an undeformed film still needs a scale
+    values = np.asarray(values, dtype=float)
+    finite = values[np.isfinite(values)] if values.size else values
+    lo = float(finite.min()) if finite.size else 0.0
+    hi = float(finite.max()) if finite.size else 0.0
+    if lo == hi == 0.0:
+        return -1.0, 1.0, U_CMAP  # an undeformed film still needs a scale
+    if lo >= 0.0:
+        return 0.0, hi, U_HALF_CMAPS[1]
+    if hi <= 0.0:
+        return lo, 0.0, U_HALF_CMAPS[0]
+    m = max(-lo, hi)
     return -m, m, U_CMAP
 
 
@@ -402,6 +443,17 @@ def _draw_curves(res, steps, field, values, path, title):
     plt.close(fig)
 
 
+def _first_snapshot(res, field):
+    """The first step worth a panel when no loads are asked for: the first with damage (a
+    positive surface energy) for alpha, the first loaded one (step 1) otherwise; a panel of
+    the sound, unloaded start shows nothing."""
+    if field == "alpha" and "surface" in res.steps:
+        damaged = np.flatnonzero(np.asarray(res.steps["surface"]) > 0.0)
+        if damaged.size:
+            return int(damaged[0])
+    return 1
+
+
 def _snapshots(res, outdir, field, loads=None, count=SNAPSHOTS, path=None, title=None):
     """Draw ``field`` at the steps of :func:`snapshot_steps` into ``path`` (default
     ``outdir/<field>_snapshots.png``); ``res`` is an open :class:`Results`. Returns the path,
@@ -411,7 +463,7 @@ def _snapshots(res, outdir, field, loads=None, count=SNAPSHOTS, path=None, title
     d = res.discretization
     if res.components(field) > 1 or d.dim > 2:
         return None
-    steps = snapshot_steps(res.t, loads, count)
+    steps = snapshot_steps(res.t, loads, count, first=_first_snapshot(res, field))
     values = np.array([res.field(field, k) for k in steps])
     path = Path(path) if path is not None else Path(outdir) / f"{field}_snapshots.png"
     if title is None:

@@ -34,11 +34,14 @@ from thinfilm.plots import (DPI, force_displacement_figure, image_extent, line_f
 
 __all__ = ["force_figure", "cracks_figure", "contact_circle", "crack_metrics_figure", "crack_pattern_figure", "toughness_figure"]
 
-#: The words of each load's displacement and force (non-dimensional: lengths in L, energies in
-#: D, forces in D/L).
+#: The words of each load's displacement and force, non-dimensional as energy.png's energies:
+#: lengths in units of L, energies of D (the film's bending stiffness), so forces in D/L
+#: (docs/model.md#physical-units).
 FORCE_WORDS = {
-    "indenter": ("indentation depth d = R t (L)", "indenter force F = dE/dd (D/L)"),
-    "cantilever": ("tip deflection $w_t(l_x) = 2 l_x^3 t$ (L)", "tip force F = dE/d$w_t(l_x)$ (D/L)"),
+    "indenter": ("indentation depth d = R t (non-dimensional, units of L)",
+                 "indenter force F = dE/dd (non-dimensional, units of D/L)"),
+    "cantilever": ("tip deflection $w_t(l_x) = 2 l_x^3 t$ (non-dimensional, units of L)",
+                   "tip force F = dE/d$w_t(l_x)$ (non-dimensional, units of D/L)"),
 }
 
 
@@ -50,7 +53,7 @@ def force_figure(res, outdir):
         return None
     xlabel, ylabel = FORCE_WORDS[load]
     if res.dim == 1:
-        ylabel = ylabel.replace("(D/L)", "(D/L per unit width)")
+        ylabel = ylabel.replace("units of D/L)", "units of D/L per unit width)")
     events = [t for t, _ in crack_events(res.t, res.cracks())]
     physical = None
     scales = file_scales(res.file)
