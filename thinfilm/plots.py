@@ -33,6 +33,7 @@ import matplotlib
 
 matplotlib.use("Agg")  # files only; no display needed
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -256,6 +257,25 @@ _MARGIN_L, _MARGIN_R, _MARGIN_T, _MARGIN_B = 0.95, 1.25, 0.7, 0.55
 _GAP_W, _GAP_H = 0.3, 0.4
 
 
+def boundary_edges(triangles):
+    """The edges of a triangle mesh that lie in one triangle only: its boundary, slits
+    included.
+
+    Parameters
+    ----------
+    triangles : ndarray, shape (m, 3), int
+
+    Returns
+    -------
+    ndarray, shape (k, 2), int64
+        Node pairs, each edge once, sorted.
+    """
+    triangles = np.asarray(triangles, dtype=np.int64)
+    edges = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    return unique[counts == 1]
+
+
 def _draw_field(ax, d, values, vmin, vmax, cmap):
     """One 2D field on the axes: an image on a grid, coloured triangles on a mesh."""
     if isinstance(d, StructuredGrid):
@@ -268,6 +288,10 @@ def _draw_field(ax, d, values, vmin, vmax, cmap):
         return image
     image = ax.tripcolor(d.points[:, 0], d.points[:, 1], d.cells, values, shading="gouraud", vmin=vmin,
                          vmax=vmax, cmap=cmap)
+    # the boundary drawn as a thin line: a notch of zero width (a slit, its two faces on
+    # nodes of their own) shows in no colour, only as boundary
+    edges = boundary_edges(d.cells)
+    ax.add_collection(LineCollection(d.points[edges], colors="0.35", linewidths=0.4))
     low, high = d.points.min(axis=0), d.points.max(axis=0)
     ax.set_xlim(low[0], high[0])
     ax.set_ylim(low[1], high[1])
@@ -444,12 +468,15 @@ def _draw_curves(res, steps, field, values, path, title):
 
 
 def _first_snapshot(res, field):
-    """The first step worth a panel when no loads are asked for: the first with damage (a
-    positive surface energy) for alpha, the first loaded one (step 1) otherwise; a panel of
-    the sound, unloaded start shows nothing."""
+    """The first step worth a panel when no loads are asked for: for alpha the first whose
+    surface energy is at least a hundredth of the last step's, otherwise the first loaded
+    one (step 1); a panel of the sound, unloaded start shows nothing."""
     if field == "alpha" and "surface" in res.steps:
-        damaged = np.flatnonzero(np.asarray(res.steps["surface"]) > 0.0)
-        if damaged.size:
+        surface = np.asarray(res.steps["surface"], dtype=float)
+        # a crack worth seeing: a hundredth of the last step's surface energy (the first
+        # faint damage of a nucleation would show as an empty panel)
+        damaged = np.flatnonzero(surface >= 0.01 * surface[-1]) if surface.size and surface[-1] > 0 else []
+        if len(damaged):
             return int(damaged[0])
     return 1
 
