@@ -33,6 +33,10 @@ AMG_MIN_DOFS_3D = 20_000
 #: setup 5.1 s and 1.2 GB, a damaged re-solve to 1e-6 in 1.9 s (23 CG iterations); the
 #: plate's theta = 0.08 with energy-minimizing P: 83 s and 3.9 GB, 9.2 s (18 iterations), its
 #: coarse levels much denser; theta = 0 with energy P: 21 s and 2.2 GB, 1.9 s.
+#: Fraction of the peak elastic energy below which a specimen no longer carries its load:
+#: no energy release rate is computed there (``fem3d.release.energy_release_rate``).
+CUT_THROUGH = 0.01
+
 AMG_OPTIONS = {"strength": ("symmetric", {"theta": 0.0}), "smooth": ("jacobi", {})}
 
 
@@ -115,7 +119,8 @@ def crack_front(scene):
 
 
 def release_rate(results):
-    """G and a of each finished step (:func:`fem3d.release.energy_release_rate`): the crack
+    """G and a of each finished step (:func:`fem3d.release.energy_release_rate`), not across a
+    jump of the crack nor once the specimen is cut through (:data:`CUT_THROUGH`): the crack
     front's width and starter length as the run recorded them (:func:`crack_front`; files
     written before: the thickness in 2D, the mesh's extent in z in 3D, a0 = 0), G taken over
     growths of at least one mesh size ``h``; NaN throughout if the load has a constant part or
@@ -128,8 +133,11 @@ def release_rate(results):
         width = p["thickness"] if int(p["dim"]) == 2 else float(np.ptp(results.discretization.points[:, 2]))
     width = math.nan if width == "none" else float(width)
     a0 = float(p.get("a0", 0.0))
+    # a jump is a growth of a crack band's width, 4 eps, at once (as crack_lengths counts an
+    # event); below a hundredth of its peak elastic energy the specimen is cut through
     G, a = energy_release_rate(results.t, results.steps["elastic"], results.steps["surface"], p["Gc"],
-                               width if math.isfinite(width) else 1.0, a0=a0, da_min=p["h"])
+                               width if math.isfinite(width) else 1.0, a0=a0, da_min=p["h"],
+                               jump=4.0 * p["eps"], carried=CUT_THROUGH)
     if not p.get("proportional", True) or not math.isfinite(width):
         # (4.16) dB/dt = 2B/t holds for a load proportional to t only: with a constant part
         # the steps alone do not give G; without a straight front there is no a

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.collections import PolyCollection
 
-from thinfilm.plots import ALPHA_CMAP, DPI, line_figure, plt, progress_note, read_reference
+from thinfilm.plots import ALPHA_CMAP, DPI, line_figure, plt, progress_note, read_reference, save_figure
 from thinfilm.plots import force_displacement_figure as _force_displacement_figure
 
 __all__ = ["force_displacement_figure", "crack_length_figure", "crack_surface_figure", "slice_polygons",
@@ -48,7 +48,7 @@ def crack_length_figure(res, outdir, length, dim):
     ax.set_ylabel("crack length S/(Gc T)" if dim == 2 else "crack area S/Gc")
     ax.set_title(f"crack {'length' if dim == 2 else 'area'} from the surface energy{progress_note(res)}",
                  fontsize=10)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -71,7 +71,7 @@ def release_rate_figure(res, outdir, G, a):
     ax.set_ylabel("energy release rate G / Gc")
     ax.set_ylim(0.0, max(1.5, float(np.nanmin([np.nanmax(G[moved]) / res.parameters["Gc"], 3.0])) * 1.05))
     ax.set_title(f"G = (2 (B/t) dt - dB) / dA over growths of at least h{progress_note(res)}", fontsize=10)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -100,7 +100,7 @@ def crack_surface_figure(res, outdir):
     fig.colorbar(image, ax=axes, shrink=0.8, label="depth along the view")
     fig.suptitle(f"crack surface (alpha >= {BROKEN}) at t = {res.t[res.n - 1]:.4g}: {int(broken.sum())} nodes"
                  f"{progress_note(res)}", fontsize=10)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -175,7 +175,7 @@ def alpha_slices_figure(res, outdir, count=3):
         ax.set_ylabel("y")
     fig.colorbar(collection, ax=axes[0].tolist(), shrink=0.8, label=r"damage $\alpha$")
     fig.suptitle(f"damage on sections at t = {res.t[res.n - 1]:.4g}{progress_note(res)}", fontsize=10)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -252,7 +252,7 @@ def crack_sections_figure(res, path, levels, xlim=None, ylim=None, step=None, wi
     fig.colorbar(collection, ax=axes[0][1:].tolist(), shrink=0.7, location="bottom", label=r"damage $\alpha$")
     fig.suptitle(f"crack at t = {res.t[k]:.4g}: from above and on sections z = const{progress_note(res)}",
                  fontsize=10)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 

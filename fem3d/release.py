@@ -24,7 +24,7 @@ import numpy as np
 __all__ = ["energy_release_rate"]
 
 
-def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0):
+def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0, jump=np.inf, carried=0.0):
     """G and the crack length at each recorded step.
 
     Parameters
@@ -43,6 +43,14 @@ def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0):
         Least growth of ``a`` over which G is computed: step k's G is the finite difference
         between step k and the latest earlier step j with ``a_k - a_j >= da_min`` (and
         ``t_j > 0``); NaN if there is none, or if ``a`` did not grow at step k.
+    jump : float
+        A growth of ``a`` in one step larger than this is a jump (a brutal crack advance):
+        its own step's G is that of the jump, but no later step is differenced back across
+        it (after the jump, ``j`` is the jump's step or later).
+    carried : float
+        Fraction of the peak elastic energy so far below which the specimen no longer carries
+        the load (cut through): G is NaN there, since ``a`` then grows only by the broken
+        band widening.
 
     Returns
     -------
@@ -56,10 +64,15 @@ def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0):
     a = np.asarray(surface, dtype=float) / (Gc * thickness) + a0
     A = (a - a0) * thickness
     G = np.full(t.shape, np.nan)
+    peak = np.maximum.accumulate(B) if len(B) else B
+    jumps = np.flatnonzero(np.diff(a) > jump) + 1      # steps that end a jump
     for k in range(1, len(t)):
-        if not a[k] > a[k - 1] or t[k] <= 0:
+        if not a[k] > a[k - 1] or t[k] <= 0 or B[k] < carried * peak[k]:
             continue
-        grown = np.flatnonzero((a[k] - a[:k] >= max(da_min, 0.0)) & (t[:k] > 0) & (a[:k] < a[k]))
+        before = jumps[jumps < k]
+        first = before[-1] if before.size else 0          # not across an earlier jump
+        grown = np.flatnonzero((a[k] - a[:k] >= max(da_min, 0.0)) & (t[:k] > 0) & (a[:k] < a[k])
+                               & (np.arange(k) >= first))
         if len(grown) == 0:
             continue
         j = grown[-1]

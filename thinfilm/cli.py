@@ -205,19 +205,27 @@ def _scan(args):
     # every run's scene validated, and checked against this machine unless another cluster
     # runs them: nothing starts on a bad one
     check = None if args.scheduler else (lambda scene: _check_size(scene, args))
-    plan = load_plan(args.scan, _overrides(args), check=check)
+    if args.max_runs is not None and args.max_runs < 1:
+        raise ScanError(args.scan, None, f"--max-runs {args.max_runs}: must be an integer >= 1")
+    plan = load_plan(args.scan, _overrides(args), check=check, max_runs=args.max_runs)
     outdir = Path(args.out) if args.out else default_outdir(args.scan)
     if outdir.exists() and not outdir.is_dir():
         raise ScanError(args.scan, None, f"output path {outdir} exists and is not a directory (use --out DIR)")
     if (outdir / "scan.json").exists() and not args.resume and not args.force:
         raise ScanError(args.scan, None, f"output directory {outdir} already holds a scan; use --resume to"
                         " continue it or --force to run it again from nothing")
-    from thinfilm.scan.execute import execute
+    from thinfilm.scan.execute import connect, execute
 
+    client = None
+    if args.scheduler:  # the cluster must answer before anything is written
+        try:
+            client = connect(args.scheduler)
+        except (ValueError, OSError) as err:
+            raise ScanError(args.scan, None, f"--scheduler {args.scheduler}: {err}") from None
     with tqdm(total=len(plan.runs), desc=Path(args.scan).stem, unit="run", disable=True if args.quiet else None,
               file=sys.stderr) as bar:
         try:
-            table, figure, counts = execute(plan, outdir, workers=args.workers, scheduler=args.scheduler,
+            table, figure, counts = execute(plan, outdir, client=client, workers=args.workers,
                                             resume=args.resume, progress=lambda record: bar.update())
         except OSError as err:  # no scheduler at that address, for one
             print(f"thinfilm: error: {args.scan}: the Dask cluster failed: {err}", file=sys.stderr)
@@ -228,6 +236,9 @@ def _scan(args):
                   + "".join(f" --set '{item}'" for item in args.overrides),
                   file=sys.stderr)
             return EXIT_INTERRUPTED
+        finally:
+            if client is not None:
+                client.close()
     return _scan_report(args, table, figure, counts)
 
 
@@ -310,6 +321,9 @@ def build_parser():
                       " same --set to --resume")
     scan.add_argument("--no-time-limit", action="store_true",
                       help="run scenes estimated to take longer than an hour each (memory stays limited)")
+    scan.add_argument("--max-runs", metavar="N", type=int,
+                      help="allow a scan of more than N runs (default: 10000; every run is validated before any"
+                      " starts)")
     scan.add_argument("--quiet", action="store_true", help="no progress bar and no report")
     scan.set_defaults(func=_scan)
     return parser

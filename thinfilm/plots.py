@@ -25,6 +25,7 @@ Kinds that record a force against a prescribed displacement draw it with
 from __future__ import annotations
 
 import contextlib
+import os
 
 from pathlib import Path
 
@@ -32,6 +33,7 @@ import matplotlib
 
 matplotlib.use("Agg")  # files only; no display needed
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 import numpy as np  # noqa: E402
 
@@ -44,6 +46,12 @@ from thinfilm.results.reader import Results, ResultsError, open_results  # noqa:
 ALPHA_CMAP = "magma_r"
 #: Deflection: diverging about u = 0, so that its sign reads at a glance.
 U_CMAP = "RdBu_r"
+#: The two halves of :data:`U_CMAP`, for a field that is never positive or never negative:
+#: blue to white and white to red, so one colour means one sign in every figure.
+U_HALF_CMAPS = (matplotlib.colors.LinearSegmentedColormap.from_list(
+                    "u_negative", matplotlib.colormaps[U_CMAP](np.linspace(0.0, 0.5, 128))),
+                matplotlib.colors.LinearSegmentedColormap.from_list(
+                    "u_positive", matplotlib.colormaps[U_CMAP](np.linspace(0.5, 1.0, 128))))
 DPI = 130
 #: Default number of snapshots, evenly spread over the finished steps.
 SNAPSHOTS = 5
@@ -51,7 +59,58 @@ SNAPSHOTS = 5
 MAX_FRAMES = 100
 
 
-def snapshot_steps(t, loads=None, count=SNAPSHOTS):
+def partial_path(path):
+    """The temporary name a file is written under before it is renamed into place: hidden, in
+    the same folder (a rename within one file system is atomic), with the same suffix (which
+    tells matplotlib and Pillow the format)."""
+    path = Path(path)
+    return path.with_name(f".{path.stem}.partial{path.suffix}")
+
+
+def unclip_markers(fig):
+    """Let the markers of every line whose points all lie within its axes' limits be drawn
+    whole: a marker on a limit (the first step at t = 0, a curve's peak at the top) is
+    otherwise cut in half by the frame. Lines that run past the limits stay clipped."""
+    for ax in fig.axes:
+        (x0, x1), (y0, y1) = sorted(ax.get_xlim()), sorted(ax.get_ylim())
+        for line in ax.get_lines():
+            if line.get_marker() in (None, "None", "none", "", " "):
+                continue
+            try:
+                x = np.asarray(line.get_xdata(), dtype=float)
+                y = np.asarray(line.get_ydata(), dtype=float)
+            except (TypeError, ValueError):  # not numbers (dates, categories): left as drawn
+                continue
+            x, y = x[np.isfinite(x) & np.isfinite(y)], y[np.isfinite(x) & np.isfinite(y)]
+            if x.size and x.min() >= x0 and x.max() <= x1 and y.min() >= y0 and y.max() <= y1:
+                line.set_clip_on(False)
+
+
+def save_figure(fig, path, dpi=None):
+    """Write ``fig`` to ``path`` under :func:`partial_path`, then rename it: a run killed while
+    it draws leaves the previous figure or the new one, never a truncated file.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path : str or Path
+        The figure's file; its suffix gives the format.
+    dpi : float, optional
+        Default :data:`DPI`.
+
+    Returns
+    -------
+    Path
+    """
+    path = Path(path)
+    partial = partial_path(path)
+    unclip_markers(fig)
+    fig.savefig(partial, dpi=DPI if dpi is None else dpi)
+    os.replace(partial, path)
+    return path
+
+
+def snapshot_steps(t, loads=None, count=SNAPSHOTS, first=0):
     """Finished steps to draw: the nearest to each requested load, or ``count`` spread evenly.
 
     Parameters
@@ -62,8 +121,10 @@ def snapshot_steps(t, loads=None, count=SNAPSHOTS):
         Requested loads. Each selects the finished step of nearest t, so a load beyond the
         last finished step (a run that stopped early) selects the last one.
     count : int, optional
-        Without ``loads``: this many steps evenly spread from the first to the last finished
-        one (all of them if fewer have finished).
+        Without ``loads``: this many steps evenly spread from step ``first`` to the last
+        finished one (all of them if fewer have finished).
+    first : int, optional
+        Without ``loads``: the first step that may be drawn (clipped to the finished ones).
 
     Returns
     -------
@@ -74,7 +135,8 @@ def snapshot_steps(t, loads=None, count=SNAPSHOTS):
     if len(t) == 0:
         return np.empty(0, dtype=int)
     if loads is None or len(loads) == 0:
-        steps = np.rint(np.linspace(0, len(t) - 1, min(count, len(t)))).astype(int)
+        first = min(max(int(first), 0), len(t) - 1)
+        steps = np.rint(np.linspace(first, len(t) - 1, min(count, len(t) - first))).astype(int)
     else:
         steps = np.array([int(np.argmin(np.abs(t - float(load)))) for load in loads], dtype=int)
     return np.unique(steps)
@@ -155,11 +217,23 @@ def _abscissa(d):
 
 
 def _colour_range(field, values):
-    """Shared colour (or y) range of a figure: [0, 1] for damage, symmetric about 0 for u."""
+    """Shared colour (or y) range of a figure and its colour map: [0, 1] for damage; for u,
+    symmetric about 0 with a diverging map where it takes both signs, and from 0 to its
+    extreme with the matching half of that map where it keeps one sign (a film pressed down
+    by an indenter is never deflected up: half a symmetric scale would stay unused)."""
     if field == "alpha":
         return 0.0, 1.0, ALPHA_CMAP
-    m = float(np.max(np.abs(values))) if np.size(values) else 0.0
-    m = m if m > 0.0 and np.isfinite(m) else 1.0  # an undeformed film still needs a scale
+    values = np.asarray(values, dtype=float)
+    finite = values[np.isfinite(values)] if values.size else values
+    lo = float(finite.min()) if finite.size else 0.0
+    hi = float(finite.max()) if finite.size else 0.0
+    if lo == hi == 0.0:
+        return -1.0, 1.0, U_CMAP  # an undeformed film still needs a scale
+    if lo >= 0.0:
+        return 0.0, hi, U_HALF_CMAPS[1]
+    if hi <= 0.0:
+        return lo, 0.0, U_HALF_CMAPS[0]
+    m = max(-lo, hi)
     return -m, m, U_CMAP
 
 
@@ -183,6 +257,25 @@ _MARGIN_L, _MARGIN_R, _MARGIN_T, _MARGIN_B = 0.95, 1.25, 0.7, 0.55
 _GAP_W, _GAP_H = 0.3, 0.4
 
 
+def boundary_edges(triangles):
+    """The edges of a triangle mesh that lie in one triangle only: its boundary, slits
+    included.
+
+    Parameters
+    ----------
+    triangles : ndarray, shape (m, 3), int
+
+    Returns
+    -------
+    ndarray, shape (k, 2), int64
+        Node pairs, each edge once, sorted.
+    """
+    triangles = np.asarray(triangles, dtype=np.int64)
+    edges = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    return unique[counts == 1]
+
+
 def _draw_field(ax, d, values, vmin, vmax, cmap):
     """One 2D field on the axes: an image on a grid, coloured triangles on a mesh."""
     if isinstance(d, StructuredGrid):
@@ -195,6 +288,10 @@ def _draw_field(ax, d, values, vmin, vmax, cmap):
         return image
     image = ax.tripcolor(d.points[:, 0], d.points[:, 1], d.cells, values, shading="gouraud", vmin=vmin,
                          vmax=vmax, cmap=cmap)
+    # the boundary drawn as a thin line: a notch of zero width (a slit, its two faces on
+    # nodes of their own) shows in no colour, only as boundary
+    edges = boundary_edges(d.cells)
+    ax.add_collection(LineCollection(d.points[edges], colors="0.35", linewidths=0.4))
     low, high = d.points.min(axis=0), d.points.max(axis=0)
     ax.set_xlim(low[0], high[0])
     ax.set_ylim(low[1], high[1])
@@ -258,7 +355,7 @@ def _image_figure(res, steps, field, values, title):
 def _draw_images(res, steps, field, values, path, title):
     """Write :func:`_image_figure` to ``path``."""
     fig = _image_figure(res, steps, field, values, title)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -344,7 +441,7 @@ def force_displacement_figure(res, outdir, events=(), reference=None, xlabel="pr
     # above the second x axis' ticks and label, if there is one
     ax.set_title(f"{title}{progress_note(res)}", fontsize=10, pad=6 if physical is None else 40)
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -366,8 +463,22 @@ def _draw_curves(res, steps, field, values, path, title):
     ax.set_ylabel(_label(res, field))
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8, loc="best")
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
+
+
+def _first_snapshot(res, field):
+    """The first step worth a panel when no loads are asked for: for alpha the first whose
+    surface energy is at least a hundredth of the last step's, otherwise the first loaded
+    one (step 1); a panel of the sound, unloaded start shows nothing."""
+    if field == "alpha" and "surface" in res.steps:
+        surface = np.asarray(res.steps["surface"], dtype=float)
+        # a crack worth seeing: a hundredth of the last step's surface energy (the first
+        # faint damage of a nucleation would show as an empty panel)
+        damaged = np.flatnonzero(surface >= 0.01 * surface[-1]) if surface.size and surface[-1] > 0 else []
+        if len(damaged):
+            return int(damaged[0])
+    return 1
 
 
 def _snapshots(res, outdir, field, loads=None, count=SNAPSHOTS, path=None, title=None):
@@ -379,7 +490,7 @@ def _snapshots(res, outdir, field, loads=None, count=SNAPSHOTS, path=None, title
     d = res.discretization
     if res.components(field) > 1 or d.dim > 2:
         return None
-    steps = snapshot_steps(res.t, loads, count)
+    steps = snapshot_steps(res.t, loads, count, first=_first_snapshot(res, field))
     values = np.array([res.field(field, k) for k in steps])
     path = Path(path) if path is not None else Path(outdir) / f"{field}_snapshots.png"
     if title is None:
@@ -407,7 +518,7 @@ def _energies(res, outdir):
     ax.set_ylabel(_label(res, "energy"))
     ax.set_title(f"energies: {_model_title(res)}{progress_note(res)}", fontsize=10)
     ax.legend()
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -431,7 +542,7 @@ def _iterations(res, outdir):
     ax.set_title(f"solver work per step: {int(steps['iterations'].sum())} iterations,"
                  f" {int(steps['u_solves'].sum())} u-solves{progress_note(res)}", fontsize=10)
     ax.legend(fontsize=8)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -474,7 +585,8 @@ def _animate(res, outdir, max_frames=MAX_FRAMES, fps=10):
     title = ax.set_title(f"damage at t = {res.t[frames[0]]:{tw}.4f} (step {frames[0]:{kw}d} of {last})",
                          fontsize=10, family="monospace")
     writer = PillowWriter(fps=fps)
-    with writer.saving(fig, str(path), dpi=90):
+    partial = partial_path(path)
+    with writer.saving(fig, str(partial), dpi=90):
         for i, k in enumerate(frames):
             show(k)
             title.set_text(f"damage at t = {res.t[k]:{tw}.4f} (step {k:{kw}d} of {last})")
@@ -484,6 +596,7 @@ def _animate(res, outdir, max_frames=MAX_FRAMES, fps=10):
                 # each frame once instead of twice.
                 fig.set_layout_engine(None)
     plt.close(fig)
+    os.replace(partial, path)
     return path
 
 

@@ -168,7 +168,7 @@ def test_a_2d_run_measures_its_cracks_in_summary_info_and_figures(runs, capsys):
     assert [m["length_energy"] for m in measured] == pytest.approx(crack_length, rel=1e-12, abs=1e-14)
     text = _info(capsys, results)
     assert f"cracks at the last finished step (alpha >= 0.9): {last.describe()}" in text
-    assert re.search(r"^  centre line y = 0: \d+ local maxima", text, re.M)
+    assert re.search(r"^  centre line y = 0: \d+ crossing\(s\) \(local maxima", text, re.M)
 
 
 def test_exact1d_plot_and_info(tmp_path, capsys):

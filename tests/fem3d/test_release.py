@@ -63,3 +63,18 @@ def test_the_crack_front_of_each_geometry():
     assert crack_front(load_case("double_torsion")) == (3.0, 7.0)
     assert crack_front(load_case("double_torsion", {"geometry.thickness": 2.5, "geometry.notch": 10.0})) == (2.5, 10.0)
     assert crack_front(load_case("brokenshire")) == ("none", 0.0)
+
+
+def test_no_difference_across_a_jump_and_none_once_cut_through():
+    # a jump of A by 1.5 at step 2, slow growth of 0.1 a step after it, then the specimen cut
+    # through (B collapses) while the broken band keeps widening
+    t = np.array([0.0, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6])
+    A = np.array([0.0, 0.0, 1.5, 1.6, 1.7, 1.8, 1.9, 2.0])
+    B = t ** 2 / (2.0 * (1.0 + A))
+    B[6:] = 1e-6
+    G_old, _ = energy_release_rate(t, B, A, 1.0, 1.0, da_min=0.25)
+    G, _ = energy_release_rate(t, B, A, 1.0, 1.0, da_min=0.25, jump=1.0, carried=0.01)
+    assert np.isfinite(G[2]) and G[2] == G_old[2]            # the jump's own step: as before
+    assert np.isfinite(G_old[3]) and np.isnan(G[3])           # 0.1 after the jump: not across it
+    assert np.isnan(G[4]) and G[5] == pytest.approx(G_old[5])  # steps 2 .. 5: 0.3 >= da_min
+    assert np.isfinite(G_old[6:]).all() and np.isnan(G[6:]).all()   # cut through: no G

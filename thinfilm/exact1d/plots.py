@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from thinfilm.exact1d.results import read_track
-from thinfilm.plots import plt
+from thinfilm.plots import plt, save_figure
 
 __all__ = ["plot_exact1d"]
 
@@ -36,7 +36,7 @@ def _energy_figure(data, path):
     ax.set_ylabel("total energy $E^*_t$")
     ax.set_title(f"exact evolution: $l_0$ = {p['length']:g}, $\\lambda$ = {p['lam']:g}, G/a = {p['toughness']:g}")
     ax.legend(fontsize=8, loc="upper left")
-    fig.savefig(path, dpi=130)
+    save_figure(fig, path, dpi=130)
     plt.close(fig)
 
 
@@ -57,7 +57,7 @@ def _cracks_figure(data, path):
     ax.set_ylabel("crack position x")
     ax.set_title("crack positions")
     ax.grid(axis="y", color="0.9")
-    fig.savefig(path, dpi=130)
+    save_figure(fig, path, dpi=130)
     plt.close(fig)
 
 

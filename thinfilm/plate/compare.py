@@ -18,6 +18,7 @@ import numpy as np  # noqa: E402
 
 from onedim.evolution import Evolution  # noqa: E402
 from thinfilm.plate.results import PlateResults  # noqa: E402
+from thinfilm.plots import save_figure  # noqa: E402
 
 
 def exact_counterpart(x0, x1, lam, toughness, t, cells=2000):
@@ -93,7 +94,7 @@ def compare(results, outdir=None):
     ax_c.set_ylabel("crack position x")
     ax_c.set_title("cracks: exact (blue bands), regularized (black)")
     figure = outdir / "compare.png"
-    fig.savefig(figure, dpi=130)
+    save_figure(fig, figure, dpi=130)
     plt.close(fig)
 
     counts = np.array([len(c) for c in cracks])

@@ -106,7 +106,7 @@ class CrackMetrics:
 
     def describe(self):
         """The metrics in a few words, for reports and titles."""
-        text = (f"{self.cracks} crack(s), {self.fragments} fragment(s) ({self.intact_fragments} intact),"
+        text = (f"{self.cracks} separate crack(s) in the plane, {self.fragments} fragment(s) ({self.intact_fragments} intact),"
                 f" {len(self.branch_points)} branch point(s); length {self.length_energy:.4g} (energy),"
                 f" {self.length_skeleton:.4g} (skeleton)")
         if self.contact_radius is not None:

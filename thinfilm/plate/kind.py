@@ -190,7 +190,7 @@ class PlateKind(EvolutionKind):
 
     name = "plate"
     required_datasets = ("grid/x", "fields/u", "fields/alpha")
-    labels = {"alpha": r"damage $\alpha$", "u": "deflection u (L)", "energy": "energy (non-dimensional)"}
+    labels = {"alpha": r"damage $\alpha$", "u": "deflection u (L)", "energy": "energy (non-dimensional, units of D)"}
     length_unit = "L"
     results_class = PlateResults
 
@@ -283,7 +283,7 @@ class PlateKind(EvolutionKind):
         return out
 
     def report(self, scene, results, summary):
-        lines = [f"t = {e['t']:.6g}: {len(e['cracks'])} crack(s) along y = 0 at "
+        lines = [f"t = {e['t']:.6g}: {len(e['cracks'])} crossing(s) of the line y = 0 at "
                  + ", ".join(f"{c:+.4f}" for c in e["cracks"]) for e in summary["events"]]
         if "force" in results.steps and results.n:
             force = peak_force_line(results.t, results.steps["force"], results.steps.get("displacement"))
@@ -324,8 +324,8 @@ class PlateKind(EvolutionKind):
             along = crack_positions(x, alpha.reshape(len(y), len(x))[j])
             lines.append(f"cracks at the last finished step (alpha >= {CRACK_THRESHOLD:g}): "
                          + measure_step(f, n - 1).describe())
-            lines.append(f"  centre line y = {y[j]:.4g}: {len(along)} local maxima of alpha >= {CRACK_THRESHOLD:g}"
-                         " (the 1D reading of events and cracks.png)")
+            lines.append(f"  centre line y = {y[j]:.4g}: {len(along)} crossing(s) (local maxima of alpha >="
+                         f" {CRACK_THRESHOLD:g}; the 1D reading of events and cracks.png)")
         return lines
 
     def figures(self, results, outdir):

@@ -30,15 +30,18 @@ from thinfilm.plate.loads import contact_radius
 from thinfilm.plate.results import crack_events
 from thinfilm.plate.units import file_scales
 from thinfilm.plots import (DPI, force_displacement_figure, image_extent, line_figure, plt, progress_note,
-                            secondary_si_axis, si_prefix)
+                            save_figure, secondary_si_axis, si_prefix)
 
 __all__ = ["force_figure", "cracks_figure", "contact_circle", "crack_metrics_figure", "crack_pattern_figure", "toughness_figure"]
 
-#: The words of each load's displacement and force (non-dimensional: lengths in L, energies in
-#: D, forces in D/L).
+#: The words of each load's displacement and force, non-dimensional as energy.png's energies:
+#: lengths in units of L, energies of D (the film's bending stiffness), so forces in D/L
+#: (docs/model.md#physical-units).
 FORCE_WORDS = {
-    "indenter": ("indentation depth d = R t (L)", "indenter force F = dE/dd (D/L)"),
-    "cantilever": ("tip deflection $w_t(l_x) = 2 l_x^3 t$ (L)", "tip force F = dE/d$w_t(l_x)$ (D/L)"),
+    "indenter": ("indentation depth d = R t (non-dimensional, units of L)",
+                 "indenter force F = dE/dd (non-dimensional, units of D/L)"),
+    "cantilever": ("tip deflection $w_t(l_x) = 2 l_x^3 t$ (non-dimensional, units of L)",
+                   "tip force F = dE/d$w_t(l_x)$ (non-dimensional, units of D/L)"),
 }
 
 
@@ -50,7 +53,7 @@ def force_figure(res, outdir):
         return None
     xlabel, ylabel = FORCE_WORDS[load]
     if res.dim == 1:
-        ylabel = ylabel.replace("(D/L)", "(D/L per unit width)")
+        ylabel = ylabel.replace("units of D/L)", "units of D/L per unit width)")
     events = [t for t, _ in crack_events(res.t, res.cracks())]
     physical = None
     scales = file_scales(res.file)
@@ -100,7 +103,7 @@ def cracks_figure(res, outdir):
     ax.set_xlabel("load t")
     ax.set_ylabel("crack position x (L)" + (" on y = 0" if res.dim == 2 else ""))
     ax.set_title(f"cracks (local maxima of alpha > 0.9){progress_note(res)}", fontsize=10)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -131,7 +134,7 @@ def toughness_figure(res, outdir):
         ax.set_ylabel("y (L)")
         fig.colorbar(image, ax=ax, label="G/a", shrink=0.9)
     ax.set_title(title, fontsize=9)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -186,7 +189,7 @@ def crack_metrics_figure(res, outdir):
     axes[-1].set_xlim(0.0, max(res.t_max, res.t[-1]))
     axes[-1].set_xlabel("load t")
     axes[0].set_title(f"crack metrics at {len(t)} step(s){progress_note(res)}", fontsize=10)
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path
 
@@ -244,6 +247,6 @@ def crack_pattern_figure(res, outdir):
     parts = last.describe().split("; ")
     title = f"t = {last.t:.4g} (step {last.step}): {parts[0]}\n{parts[1]}" + "".join(f"\n{p}" for p in parts[2:])
     fig.suptitle(title + progress_note(res), fontsize=8, y=1.0 - 0.08 / H, va="top")
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path)
     plt.close(fig)
     return path

@@ -37,13 +37,58 @@ from thinfilm.results.writer import write_json
 from thinfilm.scan.table import collect, run_dir, write_plan
 from thinfilm.scan.task import RECORD, read_record, run_task
 
-__all__ = ["execute", "local_cluster", "IgnoreInterrupt", "THREAD_VARIABLES"]
+__all__ = ["execute", "local_cluster", "connect", "IgnoreInterrupt", "THREAD_VARIABLES", "CONNECT_TIMEOUT"]
 
 #: Seconds between two rewrites of scan.csv while runs finish.
 TABLE_INTERVAL = 10.0
 #: Environment of every local worker: one thread for each numerical library.
 THREAD_VARIABLES = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
                     "NUMBA_NUM_THREADS": "1"}
+
+#: Seconds ``thinfilm scan --scheduler ADDRESS`` waits for the scheduler to answer before it
+#: refuses the scan (a scheduler on a reachable host answers in milliseconds).
+CONNECT_TIMEOUT = 5.0
+#: Address schemes of Dask's transports that a remote scheduler may use.
+SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+
+
+def connect(address, timeout=CONNECT_TIMEOUT):
+    """A client of the running Dask scheduler at ``address``, checked before a scan writes
+    anything.
+
+    Parameters
+    ----------
+    address : str
+        ``scheme://host:port`` (scheme one of :data:`SCHEMES`) or ``host:port`` (tcp).
+    timeout : float
+        Seconds to wait for the scheduler.
+
+    Returns
+    -------
+    distributed.Client
+
+    Raises
+    ------
+    ValueError
+        If the address is malformed (the message says what is allowed).
+    OSError
+        If no scheduler answered within ``timeout``.
+    """
+    from distributed import Client
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(address)
+        host, port = parse_host_port(location)
+    except ValueError as err:
+        raise ValueError(f"not a scheduler address ({err}); give scheme://host:port, e.g. tcp://host:8786") from None
+    if scheme not in SCHEMES or not host or not 0 < port < 65536:
+        raise ValueError(f"not a scheduler address: give scheme://host:port with a scheme of {', '.join(SCHEMES)},"
+                         " a host and a port in 1-65535, e.g. tcp://host:8786")
+    try:
+        return Client(address, timeout=f"{timeout}s")
+    except (OSError, TimeoutError) as err:
+        raise OSError(f"no Dask scheduler answered within {timeout:g} s ({err})") from None
 
 
 class IgnoreInterrupt(WorkerPlugin):

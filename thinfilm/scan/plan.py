@@ -31,6 +31,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,10 +39,14 @@ from pathlib import Path
 from thinfilm.scan.metrics import METRICS
 from thinfilm.scene import SceneError, Table, load_scene, read_text, show
 
-__all__ = ["ScanError", "RunSpec", "ScanPlan", "parse_plan", "load_plan", "run_name", "check_metrics", "MODES"]
+__all__ = ["ScanError", "RunSpec", "ScanPlan", "parse_plan", "load_plan", "run_name", "check_metrics", "MODES", "MAX_RUNS"]
 
 #: How the varied keys' lists combine.
 MODES = ("product", "zip")
+#: The most runs a scan may make unless ``thinfilm scan --max-runs`` lifts it: every run's
+#: scene is validated before any starts (about 1 ms each), so 10^4 runs take seconds and a
+#: mistyped range of 10^7 would take hours before a run began.
+MAX_RUNS = 10_000
 
 
 class ScanError(SceneError):
@@ -169,7 +174,7 @@ def _value_list(source, key, values):
     return values
 
 
-def parse_plan(text, source="<string>", overrides=None, check=None):
+def parse_plan(text, source="<string>", overrides=None, check=None, max_runs=MAX_RUNS):
     """Validate scan text and build its runs.
 
     Parameters
@@ -184,6 +189,9 @@ def parse_plan(text, source="<string>", overrides=None, check=None):
     check : callable, optional
         Called with every run's validated scene; may refuse it with a SceneError (the
         command line checks that each run fits the machine: :func:`thinfilm.resources.check`).
+    max_runs : int
+        A scan of more runs is refused before any is built or validated (validation takes
+        about 1 ms per run).
 
     Returns
     -------
@@ -195,14 +203,15 @@ def parse_plan(text, source="<string>", overrides=None, check=None):
         On any problem in the scan file or in any generated scene, in one line.
     """
     try:
-        return _parse(text, source, dict(overrides or {}), check)
+        return _parse(text, source, dict(overrides or {}), check, max_runs)
     except ScanError:
         raise
     except SceneError as err:  # from the table getters: the same line, as a scan's error
         raise ScanError(err.source, err.key, err.detail) from None
 
 
-def _parse(text, source, overrides, check=None):
+def _parse(text, source, overrides, check=None, max_runs=None):
+    max_runs = MAX_RUNS if max_runs is None else max_runs
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
@@ -212,7 +221,14 @@ def _parse(text, source, overrides, check=None):
     if not base.is_file():
         raise ScanError(source, "base", f"= {show(data['base'])}: no such scene file ({base})")
     base = base.resolve()
-    base_text = base.read_text(encoding="utf-8")
+    if base.suffix.lower() == ".msh":
+        raise ScanError(source, "base", f"= {show(data['base'])}: is a gmsh mesh, not a scene; the base must be a"
+                        ' scene file (.toml) that names the mesh: [geometry] kind = "file", file = "...msh"')
+    base_text = read_text(base, "base scene", ScanError)
+    try:  # the base scene as it stands, before any run is built from it
+        load_scene(base)
+    except SceneError as err:
+        raise ScanError(source, "base", f"= {show(data['base'])}: not a valid scene: {err}") from None
     mode = top.choice("mode", MODES, default="product")
 
     vary = _table(source, data, "vary")
@@ -248,6 +264,12 @@ def _parse(text, source, overrides, check=None):
     if not isinstance(metrics, list) or not metrics or not all(isinstance(m, str) for m in metrics):
         raise ScanError(source, "collect.metrics", f"= {show(metrics)}: must be a non-empty list of metric names")
 
+    n_runs = (math.prod(len(v) for v in lists.values()) if mode == "product" else len(next(iter(lists.values())))) * len(seeds)
+    if n_runs > max_runs:
+        sizes = " x ".join(str(len(v)) for v in lists.values()) + (f" x {len(seeds)} seeds" if seed_key else "")
+        raise ScanError(source, "vary", f"makes {n_runs} runs ({sizes}): more than the limit of {max_runs}"
+                        " runs per scan (each is validated before any starts); split the scan, or lift the"
+                        " limit with --max-runs N")
     keys = tuple(lists)
     combos = itertools.product(*lists.values()) if mode == "product" else zip(*lists.values())
     runs, seen = [], {}
@@ -280,7 +302,7 @@ def _parse(text, source, overrides, check=None):
                     keys=keys + ((seed_key,) if seed_key else ()), seed=seed_key, metrics=tuple(metrics), runs=tuple(runs))
 
 
-def load_plan(path, overrides=None, check=None):
+def load_plan(path, overrides=None, check=None, max_runs=None):
     """Read and validate a scan file (:func:`parse_plan`), with ``overrides`` set in every run
     and ``check`` called with each run's scene.
 
@@ -290,4 +312,5 @@ def load_plan(path, overrides=None, check=None):
         If the file cannot be read or the scan is not valid.
     """
     text = read_text(path, "scan file", ScanError)
-    return parse_plan(text, source=str(path), overrides=overrides, check=check)
+    return parse_plan(text, source=str(path), overrides=overrides, check=check,
+                      max_runs=MAX_RUNS if max_runs is None else max_runs)

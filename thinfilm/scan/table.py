@@ -166,6 +166,8 @@ def draw(outdir, plan, table_rows):
     import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
 
+    from thinfilm.plots import save_figure
+
     keys = list(plan["keys"])
     seed = plan.get("seed")
     x_key = keys[0]
@@ -229,6 +231,6 @@ def _save(fig, axes, outdir, plan, done, table_rows, plt):
                                                                   if len(done) < len(table_rows) else ""))
     fig.tight_layout()
     path = Path(outdir) / FIGURE
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
