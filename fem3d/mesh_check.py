@@ -19,7 +19,11 @@ import math
 
 import numpy as np
 
-__all__ = ["oriented_cells", "check_cover", "element_sizes", "DEGENERATE"]
+__all__ = ["oriented_cells", "check_cover", "element_sizes", "fine_size", "DEGENERATE", "FINE_PERCENTILE"]
+
+#: The percentile of the cells' sizes (:func:`element_sizes`) taken as a mesh's fine size: its
+#: ``h`` where it is finest, robust to a few small cells in corners and on curves.
+FINE_PERCENTILE = 5.0
 
 #: A cell whose measure is below this fraction of its longest edge to the power ``dim`` is
 #: degenerate: its vertices are collinear (coplanar) to rounding, and its stiffness would be
@@ -136,3 +140,9 @@ def element_sizes(points, cells):
         Lengths, in the mesh's unit.
     """
     return _edge_lengths(np.asarray(points, dtype=np.float64), np.asarray(cells, dtype=np.int64)).max(axis=1)
+
+
+def fine_size(points, cells):
+    """The mesh's element size where it is finest: the :data:`FINE_PERCENTILE` percentile of
+    :func:`element_sizes` (a length, the mesh's unit)."""
+    return float(np.percentile(element_sizes(points, cells), FINE_PERCENTILE))

@@ -48,14 +48,27 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
 
 from fem3d import specimens
+from fem3d.mesh_check import FINE_PERCENTILE, element_sizes, fine_size
+from fem3d.specimens.specimen import Extent
 from fem3d.split import SPLITS
 from thinfilm.scene import SceneError, SolverSettings, Table, read_snapshots, read_solver, require_tables, show
 
 __all__ = ["FemModelParameters", "Geometry", "MeshSizes", "Loading", "FemScene", "parse"]
 
 COMPONENTS = ("x", "y", "z")
+#: The least ``eps / h`` a scene may ask for: at ``eps = h / 2`` the discrete 1D optimal AT1
+#: profile already costs ``(1 + 1/8) Gc`` (``tests/core/test_damage.py``), and below it the
+#: profile falls within one element (the run warns below ``eps = 2 h``).
+EPS_PER_H_MIN = 0.5
+#: The largest ``eps`` as a fraction of the specimen's largest side.
+EPS_PER_SIZE_MAX = 0.5
+#: A mesh file's declared ``mesh.h`` must be within this factor of its measured fine size.
+H_FACTOR = 2.0
 #: Displacement elements (``[model] element``).
 ELEMENTS = ("P1", "P2")
 
@@ -129,10 +142,13 @@ class Geometry:
 
 @dataclass(frozen=True)
 class MeshSizes:
-    """``[mesh]``: element size ``h`` where the crack may run, ``h_coarse`` elsewhere."""
+    """``[mesh]``: element size ``h`` where the crack may run, ``h_coarse`` elsewhere; for a
+    mesh file, its elements' sizes as measured (:func:`fem3d.mesh_check.fine_size`: ``h``,
+    and the largest: ``h_coarse``), ``measured`` True."""
 
     h: float
     h_coarse: float
+    measured: bool = False
 
 
 @dataclass(frozen=True)
@@ -373,14 +389,10 @@ def _loading(source, data, dim):
 
 def parse(source, data, text):
     """Validate a ``kind = "fem"`` scene (module docstring); returns :class:`FemScene`."""
-    require_tables(source, data, ("model", "geometry", "mesh", "load"), ("solver", "output"))
+    require_tables(source, data, ("model", "geometry", "load"), ("mesh", "solver", "output"))
     model = _model(source, data)
     geometry = _geometry(source, data, model.dim)
-    sizes = Table(source, "mesh", data["mesh"], ("h", "h_coarse"))
-    h = sizes.number("h", minimum=0)
-    mesh = MeshSizes(h=h, h_coarse=sizes.number("h_coarse", minimum=0, default=h))
-    if mesh.h_coarse < mesh.h:
-        sizes._fail("h_coarse", mesh.h_coarse, f"must be >= mesh.h = {h:g}")
+    mesh, extent = _sizes(source, data, model, geometry)
     loading = _loading(source, data, model.dim)
     solver, _ = read_solver(source, data.get("solver", {}), proportional=True)
     if model.split != "none" and not loading.proportional and solver.backtrack.kind != "none":
@@ -397,6 +409,77 @@ def parse(source, data, text):
     snapshots = read_snapshots(source, output, loading.t_max)
     return FemScene(model=model, geometry=geometry, mesh=mesh, load=loading, solver=solver, text=text,
                     source=str(source), snapshots=snapshots, reference=reference)
+
+
+def _mesh_file(source, model, geometry):
+    """The mesh file of ``kind = "file"``, read and checked now (before anything is built or
+    written; :func:`fem3d.specimens.file.read` keeps it for the run), and its extent."""
+    from fem3d.specimens.file import read
+
+    def refuse(detail):
+        return SceneError(source, "geometry.file", f"= {show(Path(geometry.file).name)}: {detail}")
+
+    try:
+        mesh = read(geometry.file)
+    except (OSError, ValueError) as error:
+        detail = str(error)
+        for prefix in (f"{geometry.file}: ", "from_file: "):  # the file is named once, by the key
+            detail = detail.removeprefix(prefix)
+        raise refuse(detail) from None
+    if mesh.dim != model.dim:
+        raise refuse(f"a {mesh.dim}D mesh, but model.dim = {model.dim}")
+    lower, upper = mesh.points.min(axis=0), mesh.points.max(axis=0)
+    return mesh, Extent(tuple(lower), tuple(upper), float(np.prod(upper - lower)), float(np.prod(upper - lower)))
+
+
+def _sizes(source, data, model, geometry):
+    """``[mesh]`` read and judged against the specimen's extent and ``eps``; returns the
+    :class:`MeshSizes` and the extent (:class:`fem3d.specimens.specimen.Extent`).
+
+    A mesh file's sizes are measured (``h`` may be left out; a declared one must be within
+    :data:`H_FACTOR` of the measured one). Then, unless ``mesh.check_eps = false``: ``eps`` at
+    least :data:`EPS_PER_H_MIN` ``h`` and at most :data:`EPS_PER_SIZE_MAX` times the
+    specimen's largest side; ``h`` at most half of that side in any case.
+    """
+    record = specimens.get(geometry.kind)
+    table = Table(source, "mesh", data.get("mesh", {}), ("h", "h_coarse", "check_eps"))
+    check_eps = table.boolean("check_eps", default=True)
+    if record.extent is None:
+        mesh, extent = _mesh_file(source, model, geometry)
+        cell_sizes = element_sizes(mesh.points, mesh.cells)
+        measured = fine_size(mesh.points, mesh.cells)
+        if table.has("h"):
+            h = table.number("h", minimum=0)
+            if not measured / H_FACTOR <= h <= measured * H_FACTOR:
+                table._fail("h", h, f"must be within a factor {H_FACTOR:g} of the mesh file's element size where it is"
+                            f" finest, {measured:.4g} (the {FINE_PERCENTILE:g}th percentile of its cells' longest"
+                            " edges), or left out to take that")
+        sizes = MeshSizes(h=measured, h_coarse=float(cell_sizes.max()), measured=True)
+    else:
+        if not table.has("h"):
+            table._required("h")
+        h = table.number("h", minimum=0)
+        sizes = MeshSizes(h=h, h_coarse=table.number("h_coarse", minimum=0, default=h))
+        if sizes.h_coarse < sizes.h:
+            table._fail("h_coarse", sizes.h_coarse, f"must be >= mesh.h = {h:g}")
+        extent = record.extent_of(model.dim, geometry.options)
+    side = extent.size
+    if sizes.h > 0.5 * side:
+        key, value = ("h", sizes.h) if table.has("h") else ("h_coarse", sizes.h)
+        table._fail(key, value, f"must be at most half the specimen's largest side, {side:.4g}: the mesh would have"
+                    " fewer than two elements across it")
+    if check_eps:
+        if model.eps > EPS_PER_SIZE_MAX * side:
+            raise SceneError(source, "model.eps", f"= {model.eps:g}: must be at most {EPS_PER_SIZE_MAX:g} times the"
+                             f" specimen's largest side, {side:.4g} (a crack band about 4 eps wide must fit in"
+                             " it); set mesh.check_eps = false to run it anyway")
+        if model.eps < EPS_PER_H_MIN * sizes.h:
+            raise SceneError(source, "model.eps", f"= {model.eps:g}: must be at least {EPS_PER_H_MIN:g} times the"
+                             f" element size where the crack runs, h = {sizes.h:.4g}"
+                             f"{' (measured in the mesh file)' if sizes.measured else ''}: below, the damage"
+                             " profile falls within one element and a crack costs several times Gc; refine the"
+                             " mesh, or set mesh.check_eps = false to run it anyway")
+    return sizes, extent
 
 
 def describe_group_error(source, key, name, mesh):

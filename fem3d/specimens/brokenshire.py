@@ -79,7 +79,7 @@ import numpy as np
 from fem3d.mesh import Mesh
 from fem3d.specimens.checks import check_nonnegative, check_positive, check_sizes
 from fem3d.specimens.gmsh_tools import GRADING, TET_EDGE_RATIO, box_field, physical, read_model, session
-from fem3d.specimens.specimen import NO_FRONT, Groups, Specimen, number
+from fem3d.specimens.specimen import NO_FRONT, Extent, Groups, Specimen, number
 
 __all__ = ["brokenshire", "SPECIMEN", "SECTION", "FRAME_LENGTH", "COLLAR", "ARM", "notch_normal", "notch_distance"]
 
@@ -267,6 +267,16 @@ def brokenshire(h=6.25, h_coarse=25.0, length=LENGTH, notch_angle=NOTCH_ANGLE, n
     return Mesh(mesh.points, mesh.cells, cells, facets, nodes)
 
 
+def extent(dim, value):
+    """The prism's and frames' :class:`~fem3d.specimens.specimen.Extent`, fine in the band
+    ``|x - length / 2| <= band``."""
+    length, lever = value("length"), value("lever")
+    outer = SECTION + 2.0 * COLLAR
+    frames = 2.0 * FRAME_LENGTH * (outer**2 - SECTION**2 + 2.0 * ARM * max(lever - outer / 2.0, 0.0))
+    lower, upper = (0.0, -lever, -COLLAR), (length, lever, SECTION + COLLAR)
+    return Extent(lower, upper, length * SECTION**2 + frames, min(2.0 * value("band"), length) * SECTION**2)
+
+
 SPECIMEN = Specimen(
     name="brokenshire", dims=(3,), mesh=brokenshire,
     doc="Brokenshire's torsion test (mm): the notched prism `0 <= x <= length`, `-50 <= y <= 50`, `0 <= z <= 100` in"
@@ -280,4 +290,4 @@ SPECIMEN = Specimen(
           number("gray", GRAY, "length of the prism's ends in the region `gray`")),
     groups=Groups(cells=("specimen", "frame", "gray", "refined"), facets=("notch", "top", "bottom"),
                   nodes=("support_a", "support_b", "support_c", "load_point", "notch_floor")),
-    front=NO_FRONT)
+    front=NO_FRONT, extent=extent)

@@ -68,7 +68,7 @@ import numpy as np
 from fem3d.mesh import Mesh
 from fem3d.specimens.checks import check_nonnegative, check_positive, check_sizes
 from fem3d.specimens.gmsh_tools import TET_EDGE_RATIO, box_field, read_model, session
-from fem3d.specimens.specimen import Front, Groups, Specimen, number
+from fem3d.specimens.specimen import Extent, Front, Groups, Specimen, number
 
 __all__ = ["double_torsion", "SPECIMEN", "TABLE_4_1", "GRADING"]
 
@@ -298,6 +298,13 @@ def _crack_lips(mesh, a0, a, tol):
     return {"crack_plus": faces[lips[side > 0.0]], "crack_minus": faces[lips[side < 0.0]]}
 
 
+def extent(dim, value):
+    """The plate's :class:`~fem3d.specimens.specimen.Extent`, fine in the strip
+    ``|y| <= strip`` (the graded transition beyond it counted coarse)."""
+    L, W, T = value("length"), value("width"), value("thickness")
+    return Extent((0.0, -W / 2.0, 0.0), (L, W / 2.0, T), L * W * T, L * min(2.0 * value("strip"), W) * T)
+
+
 SPECIMEN = Specimen(
     name="double_torsion", dims=(3,), mesh=double_torsion,
     doc="the double-torsion plate of the dissertation's chapter 4 (mm), `0 <= x <= length`, `-width/2 <= y <= width/2`,"
@@ -320,4 +327,4 @@ SPECIMEN = Specimen(
                   facets=("top", "bottom", "notch", "end", "crack_plus", "crack_minus"),
                   nodes=("load_points", "load_plus", "load_minus", "supports", "support_plus", "support_minus",
                          "far_end", "far_side", "support_lines")),
-    front=Front(width="thickness", start="notch"))
+    front=Front(width="thickness", start="notch"), extent=extent)

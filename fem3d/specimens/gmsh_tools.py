@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from fem3d.mesh import Mesh
+from fem3d.mesh_check import check_cover, oriented_cells
 
 __all__ = ["GMSH_OPTIONS", "GRADING", "TET_EDGE_RATIO", "SIMPLEX_TYPE", "session", "polygon", "circle", "physical",
            "box_field", "read_model", "from_file", "oriented", "in_box"]
@@ -329,7 +330,9 @@ def _merge(groups, name, values):
 
 
 def oriented(points, cells, source):
-    """``cells`` with the last two vertices swapped where the signed area (volume) is negative.
+    """``cells`` checked (:mod:`fem3d.mesh_check`: finite coordinates, no degenerate cell, a
+    conforming cover without overlaps) and positively oriented, the last two vertices
+    swapped where the signed area (volume) is negative.
 
     Parameters
     ----------
@@ -348,15 +351,13 @@ def oriented(points, cells, source):
     Raises
     ------
     ValueError
-        If a cell has zero measure.
+        ``"<source>: <what is wrong>"`` if a check fails.
     """
-    edges = points[cells[:, 1:]] - points[cells[:, :1]]  # shape (m, dim, dim): rows are edges
-    signed = np.linalg.det(edges)
-    if np.any(signed == 0.0):
-        raise ValueError(f"{source}: {int(np.sum(signed == 0.0))} degenerate cells (zero measure)")
-    cells = cells.copy()
-    flip = signed < 0.0
-    cells[flip, -2:] = cells[flip, -1:-3:-1]
+    try:
+        cells = oriented_cells(points, cells)
+        check_cover(points, cells)
+    except ValueError as error:
+        raise ValueError(f"{source}: {error}") from None
     return cells
 
 

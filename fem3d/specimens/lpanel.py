@@ -25,7 +25,7 @@ from fem3d.mesh import Mesh
 from fem3d.specimens.checks import check_box, check_dim, check_nonnegative, check_positive, check_sequence, check_sizes
 from fem3d.specimens.gmsh_tools import (GRADING, TET_EDGE_RATIO, box_field, in_box, physical, polygon, read_model,
                                         session)
-from fem3d.specimens.specimen import DIMS, Front, Groups, Specimen, number, numbers
+from fem3d.specimens.specimen import DIMS, Extent, Front, Groups, Specimen, box_area, number, numbers
 
 __all__ = ["lpanel", "SPECIMEN", "SIDE", "CORNER"]
 
@@ -137,6 +137,18 @@ def lpanel(dim=2, h=0.625, h_coarse=12.5, refine=REFINE, window=WINDOW, load=LOA
     return Mesh(mesh.points, mesh.cells, cell_groups, mesh.facet_groups, mesh.node_groups)
 
 
+def extent(dim, value):
+    """The panel's :class:`~fem3d.specimens.specimen.Extent`: the L of side SIDE (extruded by
+    ``depth`` in 3D), fine in the ``refine`` box."""
+    lower, upper = (0.0, 0.0), (SIDE, SIDE)
+    area = SIDE**2 - (SIDE - CORNER[0]) * (SIDE - CORNER[1])
+    fine = min(box_area(value("refine"), lower, upper), area)
+    if dim == 2:
+        return Extent(lower, upper, area, fine)
+    depth = value("depth")
+    return Extent(lower + (0.0,), upper + (depth,), area * depth, fine * depth)
+
+
 SPECIMEN = Specimen(
     name="lpanel", dims=DIMS, mesh=lpanel, takes_dim=True,
     doc="Winkler's L-shaped panel (mm): the 500 x 500 mm square without its lower right 250 x 250 mm quarter,"
@@ -148,4 +160,4 @@ SPECIMEN = Specimen(
           number("depth", THICKNESS, "the 3D panel's extrusion in z", argument="thickness", dims=(3,),
                  note="is the 3D panel's extrusion (model.dim = 3); a 2D panel's thickness is model.thickness")),
     groups=Groups(cells=("window", "gray", "near_load"), facets=("bottom", "load"), nodes=("load_point", "corner")),
-    front=Front(width="depth"))
+    front=Front(width="depth"), extent=extent)

@@ -53,7 +53,7 @@ import numpy as np
 from fem3d.mesh import Mesh
 from fem3d.specimens.checks import check_box, check_positive, check_sizes
 from fem3d.specimens.gmsh_tools import GRADING, box_field, physical, read_model, session
-from fem3d.specimens.specimen import Groups, Specimen, choice, number, numbers
+from fem3d.specimens.specimen import Extent, Groups, Specimen, box_area, choice, number, numbers
 
 __all__ = ["nooru_mohamed", "SPECIMEN", "platen_area", "specimen_area", "SIDE", "NOTCH_DEPTH", "NOTCH_WIDTH",
            "NOTCH_TIPS"]
@@ -272,6 +272,15 @@ def specimen_area():
     return SIDE * SIDE - 2.0 * NOTCH_DEPTH * NOTCH_WIDTH
 
 
+def extent(dim, value):
+    """The specimen's and platens' :class:`~fem3d.specimens.specimen.Extent`, fine in the
+    ``refine`` box."""
+    p = value("platen")
+    lower, upper = (-p, -p), (SIDE + p, SIDE + p)
+    measure = specimen_area() + 2.0 * platen_area(p, value("arm"))
+    return Extent(lower, upper, measure, box_area(value("refine"), (0.0, 0.0), (SIDE, SIDE)))
+
+
 SPECIMEN = Specimen(
     name="nooru_mohamed", dims=(2,), mesh=nooru_mohamed,
     doc="Nooru-Mohamed's double-edge-notched specimen (mm), `0 <= x, y <= 200`, with two L-shaped platens",
@@ -281,4 +290,5 @@ SPECIMEN = Specimen(
           choice("symmetry", ("none", "half_turn"), SYMMETRY,
                  "`half_turn`: a mesh that is its own image by the half-turn about the centre")),
     groups=Groups(cells=("specimen", "upper_platen", "lower_platen"),
-                  facets=("upper_left", "upper_top", "lower_bottom", "lower_right", "notch_left", "notch_right")))
+                  facets=("upper_left", "upper_top", "lower_bottom", "lower_right", "notch_left", "notch_right")),
+    extent=extent)

@@ -16,8 +16,8 @@ from typing import Callable
 
 from thinfilm.options import Rule
 
-__all__ = ["Key", "Groups", "Front", "Specimen", "number", "numbers", "choice", "path", "NO_FRONT", "MESH_FRONT",
-           "DIMS"]
+__all__ = ["Key", "Groups", "Front", "Extent", "Specimen", "NODES_PER_MEASURE", "number", "numbers", "choice",
+           "path", "box_area", "NO_FRONT", "MESH_FRONT", "DIMS"]
 
 #: Both model dimensions.
 DIMS = (2, 3)
@@ -153,6 +153,45 @@ MESH_FRONT = Front(mesh=True)
 
 
 @dataclass(frozen=True)
+class Extent:
+    """Where a specimen is and how much of it is meshed fine, reckoned from its keys alone
+    (before meshing: the scene's sizes are judged against it).
+
+    Attributes
+    ----------
+    lower, upper : tuple of float
+        Corners of its bounding box (``dim`` coordinates, the scene's length unit).
+    measure : float
+        Its area (2D) or volume (3D), frames and platens included.
+    fine : float
+        The part of ``measure`` meshed at ``mesh.h`` (the rest at ``mesh.h_coarse``).
+    """
+
+    lower: tuple
+    upper: tuple
+    measure: float
+    fine: float
+
+    @property
+    def size(self):
+        """The largest side of the bounding box."""
+        return max(u - l for l, u in zip(self.lower, self.upper))
+
+
+def box_area(box, lower, upper):
+    """The area of the box ``(x0, x1, y0, y1)`` within the rectangle ``lower``-``upper``."""
+    x0, x1, y0, y1 = box
+    return max(min(x1, upper[0]) - max(x0, lower[0]), 0.0) * max(min(y1, upper[1]) - max(y0, lower[1]), 0.0)
+
+
+#: Mesh nodes per unit area (2D) or volume (3D) at element size 1, graded transitions
+#: included, fitted to the built-in specimens at moderate sizes: the estimate of
+#: :meth:`Specimen.nodes_estimate` is within 25% of the node counts of all six
+#: (docs/scenes.md#sizes).
+NODES_PER_MEASURE = {2: 1.5, 3: 3.0}
+
+
+@dataclass(frozen=True)
 class Specimen:
     """A specimen: everything the toolkit knows of a ``geometry.kind``.
 
@@ -177,6 +216,10 @@ class Specimen:
         The mesh function takes the scene's ``mesh.h`` and ``mesh.h_coarse``.
     takes_dim : bool
         The mesh function takes the model's dimension as ``dim``.
+    extent : callable or None
+        ``extent(dim, value) -> Extent`` from the keys' values (``value(name)``: the scene's
+        or the default); None for a specimen whose extent is only known from its mesh (a
+        mesh file).
     """
 
     name: str
@@ -188,6 +231,7 @@ class Specimen:
     doc: str = ""
     sized: bool = True
     takes_dim: bool = False
+    extent: Callable | None = None
 
     def key(self, name):
         """The :class:`Key` called ``name``.
@@ -231,6 +275,22 @@ class Specimen:
         if self.takes_dim:
             arguments["dim"] = dim
         return self.mesh(**arguments)
+
+    def extent_of(self, dim, options):
+        """The :class:`Extent` for the scene's keys ``options`` (``{argument: value}``), or
+        None if the record has no :attr:`extent`."""
+        if self.extent is None:
+            return None
+        return self.extent(dim, lambda name: self.value(name, options))
+
+    def nodes_estimate(self, dim, h, h_coarse, options):
+        """About how many nodes the mesh of these sizes has (:data:`NODES_PER_MEASURE`), from
+        :meth:`extent_of` alone; None without an extent."""
+        extent = self.extent_of(dim, options)
+        if extent is None:
+            return None
+        c = NODES_PER_MEASURE[dim]
+        return c * (extent.fine / h**dim + max(extent.measure - extent.fine, 0.0) / h_coarse**dim)
 
     def crack_front(self, dim, thickness, options):
         """The crack front for the energy release rate.

@@ -23,7 +23,7 @@ import numpy as np
 from fem3d.mesh import Mesh
 from fem3d.specimens.checks import check_box, check_nonnegative, check_positive, check_sizes
 from fem3d.specimens.gmsh_tools import GRADING, box_field, circle, in_box, physical, polygon, read_model, session
-from fem3d.specimens.specimen import Groups, Specimen, choice, number, numbers
+from fem3d.specimens.specimen import Extent, Groups, Specimen, box_area, choice, number, numbers
 
 __all__ = ["three_point_bending", "SPECIMEN", "NOTCH_DEPTH", "HOLES", "HOLE_RADIUS"]
 
@@ -144,6 +144,13 @@ def three_point_bending(configuration=CONFIGURATION, h=0.01, h_coarse=0.25, refi
     return Mesh(mesh.points, mesh.cells, cell_groups, mesh.facet_groups, mesh.node_groups)
 
 
+def extent(dim, value):
+    """The beam's :class:`~fem3d.specimens.specimen.Extent` (holes and notch neglected), fine in
+    the ``refine`` box."""
+    lower, upper = (-HALF_LENGTH, 0.0), (HALF_LENGTH, HEIGHT)
+    return Extent(lower, upper, 2.0 * HALF_LENGTH * HEIGHT, box_area(value("refine"), lower, upper))
+
+
 SPECIMEN = Specimen(
     name="three_point_bending", dims=(2,), mesh=three_point_bending,
     doc="the 20 x 8 in beam with three holes of the dissertation's Fig. 3.6 (in), origin at the bottom of mid-span",
@@ -153,4 +160,5 @@ SPECIMEN = Specimen(
           number("gray", GRAY, "radius of the region `gray` about the supports and the load point")),
     groups=Groups(cells=("gray", "beam", "refined", "coarse"),
                   facets=("top", "bottom", "notch", "hole_T", "hole_M", "hole_B"),
-                  nodes=("support_left", "support_right", "load_point")))
+                  nodes=("support_left", "support_right", "load_point")),
+    extent=extent)
