@@ -81,8 +81,8 @@ GEOMETRIES = {
     "file": (None, (2, 3), {"file": ("file", "file")}),
 }
 COMPONENTS = ("x", "y", "z")
-#: Displacement elements (``[model] element``).
-ELEMENTS = ("P1", "P2")
+#: Displacement elements (``[model] element``): those of the registry, :data:`fem3d.elements.ELEMENTS`.
+ELEMENTS = tuple(__import__("fem3d.elements", fromlist=["ELEMENTS"]).ELEMENTS)
 
 
 @dataclass(frozen=True)
@@ -113,7 +113,7 @@ class FemModelParameters:
     split : {"none", "amor", "positive"}
         The part of the strain energy the damage degrades (:mod:`fem3d.split`).
     element : {"P1", "P2"}
-        The displacement's element (:mod:`fem3d.quadratic_elasticity` for P2); the damage is
+        The displacement's element (:mod:`fem3d.elements`); the damage is
         P1 on the vertices either way.
     """
 
