@@ -181,6 +181,9 @@ def test_kernels_against_references(dim, plane):
     assert rel_diff(el.reactions(None, u, f, lame=(lam, mu)), K_full[con] @ u - f[con]) < 1e-13
     np.testing.assert_allclose(el.strain(u), kernels.point_strain_reference(space.basis_gradients, space.cells, u),
                                rtol=0, atol=1e-12 * np.abs(el.strain(u)).max())
+    np.testing.assert_allclose(kernels.energy_density(space.basis_gradients, space.cells, u, el.lam, el.mu),
+                               kernels.energy_density_reference(space.basis_gradients, space.cells, u, el.lam, el.mu),
+                               rtol=1e-12)
     # the default Lame parameters: gbar_e times the cell's modulus, the same at every point
     alpha = rng.random(mesh.n_nodes)
     gbar = el.degradation(alpha)
