@@ -28,7 +28,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from fem3d import kernels
-from fem3d.elasticity import _index_array, mesh_geometry
+from fem3d.mesh import index_array, mesh_geometry
 from fem3d.mesh import Mesh
 from thinfilm.damage import DamageOperator
 from thinfilm.options import real_in_range
@@ -80,7 +80,7 @@ class P1Damage(DamageOperator):
             raise ValueError(f"thickness = {thickness!r} must be 1 for a 3D mesh")
         n = mesh.n_nodes
         if fixed_nodes is not None:
-            fixed_nodes = _index_array("fixed_nodes", fixed_nodes, n)
+            fixed_nodes = index_array("fixed_nodes", fixed_nodes, n)
         omega = kernels.lumped_measure(measure, mesh.cells, n)
         indptr, indices = kernels.node_graph(mesh.cells, n)
         data = np.empty(indices.size)

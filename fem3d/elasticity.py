@@ -1,37 +1,42 @@
-r"""P1 linear elasticity with a degraded stiffness: the u-problem of the bulk solid.
+r"""Linear elasticity with a degraded stiffness: the u-problem of the bulk solid, over any
+displacement element (:mod:`fem3d.elements`).
 
 Discrete energy (``docs/model.md#bulk-solids-finite-elements``)
 ===============================================================
-Displacement ``u``: P1, ``d`` components per node (``d`` = 2 triangles, 3 tetrahedra), dof
-``node * d + component``. Damage ``alpha``: P1 scalar per node, 0 sound, 1 broken. The strain
-``e(u)`` is constant on each cell ``e``; ``psi_e = 1/2 e:C:e = lam/2 tr(e)^2 + mu e:e`` is the
-cell's undamaged strain-energy density, with ``mu = E / (2 (1 + nu))`` and
+Displacement ``u``: ``d`` components per node of the element's space (``d`` = 2 triangles,
+3 tetrahedra), dof ``node * d + component`` (P1: the mesh's vertices; P2: the vertices, then
+the edges' midpoints). Damage ``alpha``: P1 scalar per vertex, 0 sound, 1 broken. The
+undamaged strain-energy density is ``psi = 1/2 e:C:e = lam/2 tr(e)^2 + mu e:e``, with
+``mu = E / (2 (1 + nu))`` and
 
 - 3D and 2D plane strain: ``lam = E nu / ((1 + nu)(1 - 2 nu))`` (plane strain: ``e_zz = 0``);
 - 2D plane stress: ``lam* = 2 lam mu / (lam + 2 mu)`` (``sigma_zz = 0``, ``e_zz`` eliminated),
 
 and ``tr``, ``e:e`` taken over the in-plane components in 2D. With ``g(a) = (1 - a)^2 + k_res``,
 the cell's degradation is the mean of ``g`` at its vertices (the vertex quadrature of
-``Int_e g(alpha_h) psi_e``, exact for the part of ``g`` linear in ``alpha``; it keeps the
-damage problem's bulk part diagonal, as for the thin film)::
+``Int_e g(alpha_h) psi``, exact for the part of ``g`` linear in ``alpha``; it keeps the
+damage problem's bulk part diagonal, as for the thin film), and ``psi`` is integrated by the
+element's rule (points ``x_q``, weights ``w_q`` summing to 1; exact: P1 one point, the strain
+being constant; P2 the degree-2 rule)::
 
-    P(u, alpha) = T sum_e |e| psi_e(u) gbar_e,      gbar_e = 1/(d + 1) sum_{i in e} g(alpha_i)
+    P(u, alpha) = T sum_e gbar_e |e| sum_q w_q psi(e(u)(x_q)),      gbar_e = 1/(d + 1) sum_{i in e} g(alpha_i)
 
-With a contact split (:mod:`fem3d.split`) ``gbar_e`` multiplies the degraded part
-``psi_plus_e`` only and ``psi_minus_e`` is added intact; at a frozen switch the cell's
-stiffness has effective Lame parameters (:meth:`Elasticity.lame`).
-``T`` the thickness in 2D (1 in 3D; energies and forces are those of the whole slab), ``|e|``
-the cell's area or volume. The u-problem at fixed ``alpha`` minimizes ``P(u, alpha) - f.u``
-(``f`` consistent nodal forces) over ``u`` with the constrained (Dirichlet) dofs prescribed:
-``K(alpha) = sum_e T gbar_e |e| B_e^T C B_e`` (the Hessian of ``P``), split into free (``f``)
-and constrained (``d``) dofs::
+With a contact split (:mod:`fem3d.split`) ``gbar_e`` multiplies the degraded part ``psi_plus``
+only and ``psi_minus`` is added intact, point by point (the switch ``H(tr e)`` at each
+quadrature point); at a frozen switch the stiffness has effective Lame parameters per point
+(:meth:`Elasticity.lame`). ``T`` the thickness in 2D (1 in 3D; energies and forces are those
+of the whole slab), ``|e|`` the cell's area or volume. The u-problem at fixed ``alpha``
+minimizes ``P(u, alpha) - f.u`` (``f`` consistent nodal forces) over ``u`` with the
+constrained (Dirichlet) dofs prescribed: ``K(alpha)`` (the Hessian of ``P``), split into free
+(``f``) and constrained (``d``) dofs::
 
     K_ff u_f = f_f - K_fd u_d,          reactions  r_d = (K u)_d - f_d
 
 ``r_d`` is the force the support exerts on the body at each constrained dof. In the damage
-variables, ``P = sum_i c_i g(alpha_i)`` with the nodal energy
-``c_i = T sum_{e ni i} |e| psi_e / (d + 1)`` (:meth:`Elasticity.nodal_energy`), which is what
-the damage problem of :mod:`fem3d.damage` takes.
+variables, ``P = sum_i c_i g(alpha_i) + T sum_e |e| sum_q w_q psi_minus`` with the nodal
+energy on the vertices ``c_i = T sum_{e ni i} |e| (sum_q w_q psi_plus) / (d + 1)``
+(:meth:`Elasticity.nodal_energy`), which is what the damage problem of :mod:`fem3d.damage`
+takes.
 
 Units: lengths in the mesh's unit, ``E`` a stress; forces in the unit of ``E`` times length^2,
 energies in force times length (for a 2D slab: of the whole thickness ``T``).
@@ -39,15 +44,11 @@ energies in force times length (for a 2D slab: of the whole thickness ``T``).
 Assembly
 ========
 The CSR pattern of ``K_ff`` (the free dofs only: constrained rows and columns are not stored)
-is built once per mesh and set of constrained dofs; :meth:`Elasticity.matrix` rewrites its
-values in place with a Numba kernel that forms each element block on the fly from the
-basis gradients (:mod:`fem3d.kernels`) and finds its place through an int32 table of
-``(d + 1)^2`` offsets per cell. Measured on structured meshes of about 1e5 nodes (2 busy
-cores): 2D, 2e5 triangles, 2.8e6 entries: 23 ms with the table, 33 ms with a binary search
-in each dof row, 28-34 ms with a search in the node graph; 3D, 5.5e5 tetrahedra, 1.2e7
-entries: 264-281 ms, 421-431 ms and 329-361 ms. The table costs 35 MB there, a quarter of the
-matrix (142 MB). Cells ordered along the mesh (as gmsh numbers them) matter as much: the same
-3D mesh with its cells in six sweeps took 500 ms.
+is built once per space and set of constrained dofs, on the node graph of the element's
+cells; :meth:`Elasticity.matrix` rewrites its values in place with the space's kernel
+(:mod:`fem3d.kernels`), which forms each element block from the basis gradients at the
+quadrature points and finds its place through an int32 table of ``nl^2`` offsets per cell
+(nl nodes per cell). Measurements: docs/speed.md#the-element-kernels.
 """
 
 from __future__ import annotations
@@ -58,7 +59,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from fem3d import kernels, split as splits
-from fem3d.mesh import Mesh
+from fem3d.elements.p1 import P1Space
+from fem3d.elements.space import Space
+from fem3d.mesh import Mesh, index_array
 from thinfilm.options import real_in_range
 
 __all__ = ["Elasticity", "lame_parameters"]
@@ -84,46 +87,8 @@ def lame_parameters(E: float, nu: float, plane: str | None = None) -> tuple[floa
     return lam, mu
 
 
-def _index_array(name, value, size):
-    """A strictly increasing int64 array of indices in [0, size)."""
-    a = np.asarray(value)
-    if a.ndim != 1 or not (a.size == 0 or np.issubdtype(a.dtype, np.integer)):
-        raise ValueError(f"{name} must be a 1D array of integers, got shape {a.shape} and dtype {a.dtype}")
-    a = a.astype(np.int64)
-    if a.size and (a[0] < 0 or a[-1] >= size):
-        raise ValueError(f"{name} has entries outside [0, {size}): min {a.min()}, max {a.max()}")
-    if np.any(np.diff(a) <= 0):
-        raise ValueError(f"{name} must be sorted without repeats")
-    return a
-
-
-def mesh_geometry(mesh: Mesh):
-    """``(grads, measure)`` of the mesh's cells (:func:`fem3d.kernels.cell_geometry`), after
-    checking that no cell is degenerate and every node belongs to a cell.
-
-    Raises
-    ------
-    ValueError
-        Naming the first degenerate cell or the first node of no cell.
-    """
-    if not isinstance(mesh, Mesh):
-        raise TypeError(f"mesh = {mesh!r} must be a fem3d.mesh.Mesh")
-    grads, measure = kernels.cell_geometry(mesh.points, mesh.cells)
-    bad = np.flatnonzero(~(measure > 0) | ~np.isfinite(measure))
-    if bad.size:
-        raise ValueError(f"{bad.size} degenerate cell(s) (zero area or volume), the first: cell {bad[0]}"
-                         f" with vertices {mesh.cells[bad[0]].tolist()}")
-    used = np.zeros(mesh.n_nodes, dtype=bool)
-    used[mesh.cells.ravel()] = True
-    if not used.all():
-        orphans = np.flatnonzero(~used)
-        raise ValueError(f"{orphans.size} node(s) belong to no cell (their unknowns would be undetermined),"
-                         f" the first: node {orphans[0]}")
-    return grads, measure
-
-
 class Elasticity:
-    """The elastic energy of the damaged P1 solid and its u-problem.
+    """The elastic energy of the damaged solid and its u-problem, over a displacement element.
 
     Parameters
     ----------
@@ -140,19 +105,23 @@ class Elasticity:
     k_res : float
         Residual stiffness in ``g(a) = (1 - a)^2 + k_res``, >= 0.
     constrained : array of int, optional
-        The constrained (Dirichlet) dofs ``node * d + component``, sorted without repeats.
-        Default: none (``K`` is then singular: the rigid-body modes).
+        The constrained (Dirichlet) dofs ``node * d + component`` over the space's nodes,
+        sorted without repeats. Default: none (``K`` is then singular: the rigid-body modes).
     modulus : ndarray, shape (n_cells,), optional
         Each cell's Young's modulus over ``E`` (a buffer layer's ``E_b / E``), > 0, the same
         ``nu``; default 1 everywhere. It multiplies the cell's stiffness, stress and energy.
     split : {"none", "amor", "positive"}
         The part of the energy the damage degrades (:mod:`fem3d.split`, (4.10)-(4.12)).
-        With a split the u-problem depends on each cell's switch ``H(tr e)``: the
+        With a split the u-problem depends on each point's switch ``H(tr e)``: the
         stiffness, the right-hand side and the reactions take it frozen (``tension``).
+    space : fem3d.elements.space.Space, optional
+        The displacement's element on ``mesh`` (:func:`fem3d.elements.make_space`); default
+        P1 (:class:`fem3d.elements.p1.P1Space`).
 
     Attributes
     ----------
     mesh : Mesh
+    space : Space
     dim : int
     E, nu, thickness, k_res : float
     plane : str or None
@@ -168,14 +137,26 @@ class Elasticity:
         The cells' moduli over ``E``.
     nnz : int
         Stored entries of ``K_ff``.
+
+    Notes
+    -----
+    A quantity "at the points" (Lame parameters, switch, strain, densities) has the space's
+    :attr:`~fem3d.elements.space.Space.point_shape`: (n_cells,) for P1, (n_cells, n_q) for an
+    element of ``n_q`` quadrature points.
     """
 
     def __init__(self, mesh: Mesh, E: float, nu: float, *, plane: str = "stress", thickness: float = 1.0,
-                 k_res: float = 1e-6, constrained=None, modulus=None, split: str = "none"):
-        self.grads, self.measure = mesh_geometry(mesh)
+                 k_res: float = 1e-6, constrained=None, modulus=None, split: str = "none", space=None):
+        if not isinstance(mesh, Mesh):
+            raise TypeError(f"mesh = {mesh!r} must be a fem3d.mesh.Mesh")
+        space = P1Space(mesh) if space is None else space
+        if not isinstance(space, Space) or space.mesh is not mesh:
+            raise ValueError("space must be an element space (fem3d.elements) of mesh")
+        self.space = space
+        self.grads, self.measure = space.grads, space.measure
         self.mesh = mesh
         self._set_material(E, nu, plane, thickness, k_res, modulus, split)
-        self._set_dofs(mesh.cells, mesh.points, constrained)
+        self._set_dofs(space.cells, space.points, constrained)
 
     def _set_material(self, E, nu, plane, thickness, k_res, modulus, split):
         """Check and store the material, the model and each cell's modulus (on :attr:`mesh`)."""
@@ -204,15 +185,14 @@ class Elasticity:
         self.modulus.flags.writeable = False
 
     def _set_dofs(self, cells, points, constrained):
-        """The displacement's dofs on the nodes ``points`` of ``cells`` (the mesh's for P1,
-        the P2 nodes for :class:`fem3d.quadratic_elasticity.QuadraticElasticity`): free and
+        """The displacement's dofs on the nodes ``points`` of ``cells`` (the space's): free and
         constrained dofs, the CSR pattern of ``K_ff`` with each cell's offsets, and the cells
         with a constrained dof."""
         d = self.dim
         self._node_points = points
         n_nodes = points.shape[0]
         n_dofs = d * n_nodes
-        con = np.zeros(0, dtype=np.int64) if constrained is None else _index_array("constrained", constrained, n_dofs)
+        con = np.zeros(0, dtype=np.int64) if constrained is None else index_array("constrained", constrained, n_dofs)
         mask = np.ones(n_dofs, dtype=bool)
         mask[con] = False
         self._constrained = con
@@ -282,6 +262,12 @@ class Elasticity:
             raise ValueError(f"{name} must have shape ({size},), got {x.shape}")
         return x
 
+    def _pointwise(self, name, x):
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        if x.shape != self.space.point_shape:
+            raise ValueError(f"{name} must have shape {self.space.point_shape}, got {x.shape}")
+        return x
+
     def degradation(self, alpha) -> np.ndarray:
         """Cell degradation ``gbar_e``, the mean of ``(1 - alpha)^2 + k_res`` at the cell's
         vertices, shape (n_cells,).
@@ -289,46 +275,30 @@ class Elasticity:
         Parameters
         ----------
         alpha : ndarray, shape (n_nodes,)
+            Damage at the mesh's vertices.
         """
         alpha = self._vector("alpha", alpha, self.mesh.n_nodes)
         return kernels.cell_degradation(alpha, self.mesh.cells, self.k_res)
 
     def tension(self, u) -> np.ndarray:
         """The switch ``H(tr e)`` at every point of the displacement ``u``: True where it is in
-        tension, shape (n_cells,) (P1: each cell)."""
+        tension, shape (n_cells,) for P1 (each cell), (n_cells, n_q) for an element of ``n_q``
+        points."""
         return splits.tension(self.strain(u), self.dim)
 
-    # --- the points where the stiffness is evaluated ---------------------------------------
-    # P1: one per cell (the strain is constant there). A higher-order element overrides these
-    # three and the two kernel calls below; everything else is written once, here.
-    @property
-    def _point_shape(self):
-        """Shape of a quantity given at every point: (n_cells,)."""
-        return (self.mesh.n_cells,)
-
-    def _at_points(self, per_cell):
-        """A per-cell quantity, shape (n_cells,), at every point (P1: itself)."""
-        return per_cell
-
     def cell_mean(self, values) -> np.ndarray:
-        """The mean over each cell of a quantity given at every point, shape (n_cells,) (P1: the
-        cell's own value)."""
-        return self._pointwise("values", values)
-
-    def _pointwise(self, name, x):
-        x = np.ascontiguousarray(x, dtype=np.float64)
-        if x.shape != self._point_shape:
-            raise ValueError(f"{name} must have shape {self._point_shape}, got {x.shape}")
-        return x
+        """The mean over each cell of a quantity given at every point, ``sum_q w_q values[:, q]``
+        (P1: the cell's own value), shape (n_cells,)."""
+        return self.space.cell_mean(self._pointwise("values", values))
 
     def lame(self, alpha, tension=None) -> tuple[np.ndarray, np.ndarray]:
-        """The effective Lame parameters ``(lam, mu)`` at every point (P1: each cell, shape
-        (n_cells,) each): the cell's degradation and the split with the switch frozen at
-        ``tension`` (None: every point in tension, the whole density degraded), times the
-        cell's modulus (:func:`fem3d.split.effective_lame`)."""
-        lam, mu = splits.effective_lame(self._at_points(self.degradation(alpha)), tension, self.lam, self.mu,
+        """The effective Lame parameters ``(lam, mu)`` at every point (shape
+        (n_cells,) each for P1, (n_cells, n_q) otherwise): the cell's degradation and the split
+        with the switch frozen at ``tension`` (None: every point in tension, the whole density
+        degraded), times the cell's modulus (:func:`fem3d.split.effective_lame`)."""
+        lam, mu = splits.effective_lame(self.space.at_points(self.degradation(alpha)), tension, self.lam, self.mu,
                                         self.dim, self.split)
-        modulus = self._at_points(self.modulus)
+        modulus = self.space.at_points(self.modulus)
         return lam * modulus, mu * modulus
 
     def _point_lame(self, alpha, tension, lame):
@@ -338,16 +308,6 @@ class Elasticity:
             raise ValueError("give alpha (and tension) or lame, not both")
         lam, mu = lame
         return self._pointwise("lame[0]", lam), self._pointwise("lame[1]", mu)
-
-    def _stiffness_values(self, lam, mu):
-        """Write ``K_ff``'s values for the points' Lame parameters (the element's kernel)."""
-        kernels.stiffness_values(self.grads, self.measure, self.mesh.cells, lam, mu, self.thickness,
-                                 self._free_index, self._indptr, self._offsets, self._matrix.data)
-
-    def _boundary_product(self, lam, mu, row_index, col_index, x, sign, out):
-        """``out[row_index[i]] += sign (K_e x)_i`` over the cells with a constrained dof."""
-        kernels.boundary_product(self.grads, self.measure, self.mesh.cells, self._boundary_cells, lam, mu,
-                                 self.thickness, row_index, col_index, x, sign, out)
 
     # --- the linear system --------------------------------------------------------------------
     def matrix(self, alpha, *, tension=None, lame=None) -> sp.csr_matrix:
@@ -359,21 +319,23 @@ class Elasticity:
 
         Parameters
         ----------
-        alpha : ndarray, shape (n_nodes,)
-            Damage at the nodes.
-        tension : ndarray of bool, shape (n_cells,), optional
-            The split's switch, frozen (:meth:`tension` of an earlier displacement); None:
-            every cell in tension. Irrelevant without a split.
-        lame : (ndarray, ndarray), shape (n_cells,) each, optional
-            Each cell's effective Lame parameters, in place of :meth:`lame`'s (then ``alpha``
-            must be None).
+        alpha : ndarray, shape (n_vertices,)
+            Damage at the mesh's vertices.
+        tension : ndarray of bool, optional
+            The split's switch at every point, frozen (:meth:`tension` of an earlier
+            displacement); None: every point in tension. Irrelevant without a split.
+        lame : (ndarray, ndarray), optional
+            The effective Lame parameters at every point, in place of :meth:`lame`'s (then
+            ``alpha`` must be None).
 
         Returns
         -------
         K_ff : scipy.sparse.csr_matrix, shape (n_free, n_free)
             Units of ``E`` times length (force per displacement).
         """
-        self._stiffness_values(*self._point_lame(alpha, tension, lame))
+        lam, mu = self._point_lame(alpha, tension, lame)
+        self.space.stiffness_values(lam, mu, self.thickness, self._free_index, self._indptr, self._offsets,
+                                    self._matrix.data)
         return self._matrix
 
     def rhs(self, alpha, u_constrained, f=None, *, tension=None, lame=None) -> np.ndarray:
@@ -381,7 +343,7 @@ class Elasticity:
 
         Parameters
         ----------
-        alpha : ndarray, shape (n_nodes,)
+        alpha : ndarray, shape (n_vertices,)
         u_constrained : ndarray, shape (n_constrained,), or float
             Prescribed displacements (length), in the order of :attr:`constrained`.
         f : ndarray, shape (n_dofs,), optional
@@ -398,7 +360,8 @@ class Elasticity:
         u_d = np.ascontiguousarray(np.broadcast_to(np.asarray(u_constrained, dtype=np.float64),
                                                    self._constrained.shape))
         out = np.zeros(self._free.size) if f is None else self._vector("f", f, self.n_dofs)[self._free].copy()
-        self._boundary_product(lam, mu, self._free_index, self._con_index, u_d, -1.0, out)
+        self.space.boundary_product(self._boundary_cells, lam, mu, self.thickness, self._free_index, self._con_index,
+                                    u_d, -1.0, out)
         return out
 
     def reactions(self, alpha, u, f=None, *, lame=None) -> np.ndarray:
@@ -413,7 +376,7 @@ class Elasticity:
 
         Parameters
         ----------
-        alpha : ndarray, shape (n_nodes,)
+        alpha : ndarray, shape (n_vertices,)
         u : ndarray, shape (n_dofs,)
             The full displacement.
         f : ndarray, shape (n_dofs,), optional
@@ -430,56 +393,66 @@ class Elasticity:
         tension = None if (lame is not None or self.split == "none") else self.tension(u)
         lam, mu = self._point_lame(alpha, tension, lame)
         out = np.zeros(self._constrained.size)
-        self._boundary_product(lam, mu, self._con_index, self._dof_index, u, 1.0, out)
+        self.space.boundary_product(self._boundary_cells, lam, mu, self.thickness, self._con_index, self._dof_index,
+                                    u, 1.0, out)
         if f is not None:
             out -= self._vector("f", f, self.n_dofs)[self._constrained]
         return out
 
     # --- energies and fields ------------------------------------------------------------------
     def strain(self, u) -> np.ndarray:
-        """Cell strains in Voigt order with tensor shear components, 2D ``(e_xx, e_yy, e_xy)``,
-        3D ``(e_xx, e_yy, e_zz, e_yz, e_xz, e_xy)``; shape (n_cells, 3 or 6), dimensionless."""
-        return kernels.cell_strain(self.grads, self.mesh.cells, self._vector("u", u, self.n_dofs))
+        """The strain at every point in Voigt order with tensor shear components, 2D
+        ``(e_xx, e_yy, e_xy)``, 3D ``(e_xx, e_yy, e_zz, e_yz, e_xz, e_xy)``; shape
+        (n_cells, 3 or 6) for P1, (n_cells, n_q, 3 or 6) otherwise (the points
+        ``space.bary``), dimensionless."""
+        return self.space.strain(self._vector("u", u, self.n_dofs))
 
     def stress(self, u) -> np.ndarray:
-        """Undamaged cell stresses ``C_e e(u)`` in Voigt order, 2D ``(s_xx, s_yy, s_xy)`` (in plane;
-        plane strain's ``s_zz = lam (e_xx + e_yy)`` is not returned), 3D
-        ``(s_xx, s_yy, s_zz, s_yz, s_xz, s_xy)``; shape (n_cells, 3 or 6), units of ``E``
-        (each cell's own modulus). The damaged stress of cell ``e`` is ``gbar_e`` times this."""
+        """Undamaged stresses ``C_e e(u)`` at every point in Voigt order, 2D ``(s_xx, s_yy, s_xy)``
+        (in plane; plane strain's ``s_zz = lam (e_xx + e_yy)`` is not returned), 3D
+        ``(s_xx, s_yy, s_zz, s_yz, s_xz, s_xy)``; the shape of :meth:`strain`, units of ``E``
+        (each cell's own modulus). The damaged stress is ``gbar_e`` times this."""
         e = self.strain(u)
         d = self.dim
         s = 2.0 * self.mu * e
         s[..., :d] += self.lam * e[..., :d].sum(axis=-1, keepdims=True)
-        return s * self._at_points(self.modulus)[..., None]
+        return s * self.space.at_points(self.modulus)[..., None]
 
     def strain_energy_density(self, u) -> np.ndarray:
-        """Undamaged strain-energy density ``psi_e = 1/2 e:C_e:e`` of each cell (its own modulus),
-        shape (n_cells,) (energy per volume, units of ``E``)."""
-        return kernels.strain_energy_density(self.grads, self.mesh.cells, self._vector("u", u, self.n_dofs),
-                                             self.lam, self.mu) * self.modulus
+        """The mean over each cell of the undamaged density ``psi = 1/2 e:C_e:e`` (its own
+        modulus), ``Int_e psi / |e|``, shape (n_cells,) (energy per volume, units of ``E``)."""
+        psi = self.space.energy_density(self._vector("u", u, self.n_dofs), self.lam, self.mu)
+        return self.space.cell_mean(psi) * self.modulus
 
     def energy_parts(self, u) -> tuple[np.ndarray, np.ndarray]:
-        """``(psi_plus, psi_minus)`` at every point (P1: each cell, shape (n_cells,) each): the
-        part of the density the damage degrades and the part it leaves intact
+        """``(psi_plus, psi_minus)`` at every point (shape of :meth:`tension`): the part of the
+        density the damage degrades and the part it leaves intact
         (:func:`fem3d.split.energy_parts`), each cell's modulus included (energy per volume)."""
         plus, minus = splits.energy_parts(self.strain(u), self.lam, self.mu, self.dim, self.split)
-        modulus = self._at_points(self.modulus)
+        modulus = self.space.at_points(self.modulus)
         return plus * modulus, minus * modulus
 
     def nodal_energy(self, u) -> np.ndarray:
-        """The nodal energy ``c_i = T sum_{e ni i} |e| psi_plus_e / (d + 1)``, shape (n_nodes,)
-        (energy): ``P(u, alpha) = sum_i c_i g(alpha_i) + T sum_e |e| psi_minus_e``, whose
-        first part alone depends on the damage."""
+        """The nodal energy on the vertices ``c_i = T sum_{e ni i} |e| psi_plus_e / (d + 1)``
+        (``psi_plus_e`` the cell's mean), shape (n_vertices,) (energy):
+        ``P(u, alpha) = sum_i c_i g(alpha_i) + T sum_e |e| psi_minus_e``, whose first part
+        alone depends on the damage."""
         out = np.empty(self.mesh.n_nodes)
         kernels.nodal_energy(self.cell_mean(self.energy_parts(u)[0]), self.measure, self.mesh.cells, self.thickness,
                              out)
         return out
 
     def elastic_energy(self, u, alpha) -> float:
-        """``P(u, alpha) = T sum_e |e| (gbar_e psi_plus_e(u) + psi_minus_e(u))`` (energy)."""
+        """``P(u, alpha) = T sum_e |e| (gbar_e psi_plus_e(u) + psi_minus_e(u))`` (cell means;
+        energy)."""
         plus, minus = (self.cell_mean(part) for part in self.energy_parts(u))
         return float(self.thickness * (np.dot(self.measure * plus, self.degradation(alpha))
                                        + np.dot(self.measure, minus)))
+
+    def body_force(self, force, n=4) -> np.ndarray:
+        """The consistent load vector of a body force (force per volume), shape (n_dofs,)
+        (:meth:`fem3d.elements.space.Space.body_force`)."""
+        return self.space.body_force(force, self.thickness, n)
 
     # --- near-nullspace -----------------------------------------------------------------------
     def rigid_modes(self) -> np.ndarray:

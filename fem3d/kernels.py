@@ -1,28 +1,38 @@
-"""Numba kernels of the P1 elasticity and damage operators (:mod:`fem3d.elasticity`,
+"""Numba kernels of the elasticity and damage operators (:mod:`fem3d.elasticity`,
 :mod:`fem3d.damage`), with their NumPy/scipy references (``*_reference``).
 
 Arrays and scalars in, no validation (the operators call these with the right dtypes:
 C-contiguous float64 arrays, int64 indices, int32 position tables). The discrete energy is
-defined in :mod:`fem3d.elasticity` and :mod:`fem3d.damage`.
+defined in :mod:`fem3d.elasticity` and :mod:`fem3d.damage`; the elements (their nodes,
+quadrature and basis gradients) in :mod:`fem3d.elements`.
 
 Conventions shared by every kernel
 ----------------------------------
 - ``points`` (n_nodes, d), ``cells`` (n_cells, d + 1); ``d`` = 2 (triangles) or 3 (tetrahedra).
 - ``grads`` (n_cells, d + 1, d): the gradients of the P1 basis functions of each cell's
   vertices, in the order of ``cells``; ``measure`` (n_cells,): areas or volumes.
-- Displacement dofs: ``node * d + component``. ``free_index`` (n_dofs,) maps a dof to its
-  row in the free block (``-1`` if constrained), ``con_index`` (n_dofs,) to its position
-  among the constrained dofs (``-1`` if free); both increase with the dof.
-- Element stiffness of cell ``e`` between dof ``(i, a)`` (vertex ``i``, component ``a``) and
-  ``(j, b)``, with ``g_i`` the basis gradients (``C e(phi_ia) : e(phi_jb)``)::
+- Displacement dofs: ``node * d + component``, over the element's nodes. ``free_index``
+  (n_dofs,) maps a dof to its row in the free block (``-1`` if constrained), ``con_index``
+  (n_dofs,) to its position among the constrained dofs (``-1`` if free); both increase with
+  the dof.
+- Elements (:mod:`fem3d.elements`): ``element_cells`` (n_cells, nl), each cell's ``nl``
+  displacement nodes; a quadrature rule of ``n_q`` points with ``weights`` (n_q,) summing to 1
+  (fractions of the cell's measure); ``basis`` (n_cells, n_q, nl, d), the gradient of each
+  local basis function at each point (1 / length); ``lam``, ``mu`` (n_cells, n_q), the
+  effective Lame parameters at the points (degradation, split and modulus included). The
+  element stiffness between dof ``(k, a)`` (local node ``k``, component ``a``) and ``(m, b)``,
+  with ``G_qk`` the gradient of basis function ``k`` at point ``q`` (``C e(phi_ka) : e(phi_mb)``)::
 
-      K_e[ia, jb] = w_e |e| (lam g_i[a] g_j[b] + mu (g_i[b] g_j[a] + delta_ab g_i . g_j))
+      K_e[ka, mb] = T |e| sum_q w_q (lam_q G_qk[a] G_qm[b] + mu_q (G_qk[b] G_qm[a] + delta_ab G_qk . G_qm))
 
-  ``w_e`` the cell's coefficient (the thickness times the cell's degradation), computed on
-  the fly from ``grads``: nothing per cell is stored beyond ``grads`` and the position table.
-  The products are grouped as ``lam (g_i[a] g_j[b]) + mu (g_i[b] g_j[a])`` so that the
-  ``(ia, jb)`` and ``(jb, ia)`` entries are computed by the same operations: the matrix is
-  symmetric bit for bit.
+  :func:`stiffness_values` and :func:`boundary_product` form it per cell through two
+  symmetric ``nl d x nl d`` products (:func:`_element_parts`), so that ``(ka, mb)`` and
+  ``(mb, ka)`` are equal bit for bit: the matrix is symmetric.
+- P1 fast path (:func:`p1_stiffness_values`, :func:`p1_boundary_product`, :func:`p1_strain`,
+  :func:`p1_energy_density`): one point per cell, ``basis = grads``, the entries formed directly as
+  ``w lam (g_k[a] g_m[b]) + w mu (g_k[b] g_m[a]) + delta_ab w mu g_k . g_m`` (the same
+  operations for ``(ka, mb)`` and ``(mb, ka)``: symmetric bit for bit), faster than the
+  generic kernels on P1 (docs/speed.md#the-element-kernels).
 - CSR patterns are built once (:func:`node_graph`, :func:`free_pattern`); the value kernels
   write into ``data`` through positions found once per mesh (:func:`cell_offsets`).
 - Sums run serially in index order (reproducible; no fastmath).
@@ -30,11 +40,10 @@ Conventions shared by every kernel
 Position lookup
 ---------------
 Every free row of node ``i`` has the same columns (the free dofs of ``i``'s neighbours, in
-increasing order), so the position of ``(ia, jb)`` is ``indptr[row(ia)] + offset(i, j) +
+increasing order), so the position of ``(ka, mb)`` is ``indptr[row(ka)] + offset(i, j) +
 (number of free components of j before b)``, where ``offset(i, j)`` depends on the node pair
-only. :func:`cell_offsets` stores it per cell and vertex pair (int32, ``(d + 1)^2`` per cell:
-36 bytes per triangle, 64 per tetrahedron, against 48 and 96 for ``grads``), which made the
-assembly 1.4-1.6 times faster than a binary search in each row (:mod:`fem3d.elasticity`).
+only. :func:`cell_offsets` stores it per cell and node pair (int32, ``nl^2`` per cell), in
+place of a binary search in each row (docs/speed.md#the-element-kernels).
 """
 
 from __future__ import annotations
@@ -48,10 +57,10 @@ __all__ = [
     "node_graph", "node_graph_reference",
     "free_pattern", "free_pattern_reference", "cell_offsets",
     "cell_degradation", "cell_degradation_reference",
-    "stiffness_values", "stiffness_reference",
-    "boundary_product",
-    "cell_strain", "cell_strain_reference",
-    "strain_energy_density", "strain_energy_density_reference",
+    "stiffness_values", "p1_stiffness_values", "stiffness_reference",
+    "boundary_product", "p1_boundary_product",
+    "point_strain", "p1_strain", "point_strain_reference",
+    "energy_density", "p1_energy_density", "energy_density_reference",
     "nodal_energy", "nodal_energy_reference",
     "laplacian_values", "laplacian_reference",
     "lumped_measure", "lumped_measure_reference",
@@ -284,8 +293,9 @@ def _find(indices, lo, hi, key):
 
 @njit(cache=True)
 def cell_offsets(cells, node_indptr, node_indices, entry_offset):
-    """Per cell and vertex pair ``(k, l)``: ``entry_offset`` of the node pair
-    ``(cells[e, k], cells[e, l])`` (see :func:`free_pattern`), int32, shape (n_cells, d + 1, d + 1)."""
+    """Per cell and pair ``(k, l)`` of its nodes: ``entry_offset`` of the node pair
+    ``(cells[e, k], cells[e, l])`` (see :func:`free_pattern`), int32, shape (n_cells, nl, nl)
+    (``cells`` (n_cells, nl): the mesh's cells, or an element's cells of its nodes)."""
     n_cells, nv = cells.shape
     out = np.empty((n_cells, nv, nv), dtype=np.int32)
     for e in range(n_cells):
@@ -332,22 +342,102 @@ def _gram(grads, e, gg):
 
 
 @njit(cache=True)
-def stiffness_values(grads, measure, cells, lam, mu, thickness, free_index, indptr, offsets, data):
-    """Write the values of ``K_ff = sum_e thickness |e| B_e^T C_e B_e`` into ``data``.
+def _element_parts(basis, measure, weights, e, lam, mu, thickness, A, M, Tr):
+    """The parts of cell ``e``'s element stiffness (module docstring), written into ``A``,
+    ``M`` (nl d, nl d) and ``Tr`` (nl, nl): with ``X_q(k d + a) = G_qk[a]``,
+    ``A[i, j] = sum_q T |e| w_q lam_q X_qi X_qj``, ``M`` the same with ``mu``, and
+    ``Tr[k, m] = sum_c M[kc, mc]``, so that::
+
+        K_e[ka, mb] = A[ka, mb] + M[kb, ma] + delta_ab Tr[k, m]
+
+    ``A`` and ``M`` are summed on their upper triangle and mirrored, so ``K_e`` is symmetric
+    bit for bit."""
+    n_q, nl, d = basis.shape[1], basis.shape[2], basis.shape[3]
+    n = nl * d
+    X = basis[e].reshape(n_q, n)
+    A[:, :] = 0.0
+    M[:, :] = 0.0
+    for q in range(n_q):
+        w = thickness * measure[e] * weights[q]
+        wl = w * lam[e, q]
+        wm = w * mu[e, q]
+        for i in range(n):
+            xl = wl * X[q, i]
+            xm = wm * X[q, i]
+            for j in range(i, n):
+                A[i, j] += xl * X[q, j]
+                M[i, j] += xm * X[q, j]
+    for i in range(n):
+        for j in range(i + 1, n):
+            A[j, i] = A[i, j]
+            M[j, i] = M[i, j]
+    for k in range(nl):
+        for m in range(nl):
+            t = 0.0
+            for c in range(d):
+                t += M[k * d + c, m * d + c]
+            Tr[k, m] = t
+
+
+@njit(cache=True)
+def stiffness_values(basis, measure, weights, cells, lam, mu, thickness, free_index, indptr, offsets, data):
+    """Write the values of ``K_ff = sum_e K_e`` (module docstring) into ``data``.
 
     Parameters
     ----------
-    lam, mu : ndarray, shape (n_cells,)
-        Each cell's effective Lame parameters (degraded, split, times its modulus:
-        :func:`fem3d.split.effective_lame`), ``C_e`` their isotropic tensor.
+    basis : ndarray, shape (n_cells, n_q, nl, d)
+        Basis gradients at the quadrature points.
+    measure : ndarray, shape (n_cells,)
+    weights : ndarray, shape (n_q,)
+    cells : ndarray of int64, shape (n_cells, nl)
+        The element's cells (its nodes).
+    lam, mu : ndarray, shape (n_cells, n_q)
+        Effective Lame parameters at the points.
+    thickness : float
     free_index : ndarray of int64, shape (n_dofs,)
     indptr : ndarray of int64, shape (n_free + 1,)
-        The pattern of :func:`free_pattern`.
-    offsets : ndarray of int32, shape (n_cells, d + 1, d + 1)
-        From :func:`cell_offsets`.
+        The pattern of :func:`free_pattern` on the element's node graph.
+    offsets : ndarray of int32, shape (n_cells, nl, nl)
+        :func:`cell_offsets` of the element's cells.
     data : ndarray, shape (nnz,)
         Overwritten.
     """
+    n_cells, nl = cells.shape
+    n_q, d = basis.shape[1], basis.shape[3]
+    data[:] = 0.0
+    A = np.empty((nl * d, nl * d), dtype=np.float64)
+    M = np.empty((nl * d, nl * d), dtype=np.float64)
+    Tr = np.empty((nl, nl), dtype=np.float64)
+    for e in range(n_cells):
+        _element_parts(basis, measure, weights, e, lam, mu, thickness, A, M, Tr)
+        for k in range(nl):
+            i = cells[e, k]
+            for a in range(d):
+                r = free_index[i * d + a]
+                if r < 0:
+                    continue
+                base = indptr[r]
+                for m in range(nl):
+                    off = offsets[e, k, m]
+                    if off < 0:
+                        continue
+                    j = cells[e, m]
+                    p = base + off
+                    for b in range(d):
+                        if free_index[j * d + b] < 0:
+                            continue
+                        v = A[k * d + a, m * d + b] + M[k * d + b, m * d + a]
+                        if a == b:
+                            v += Tr[k, m]
+                        data[p] += v
+                        p += 1
+
+
+@njit(cache=True)
+def p1_stiffness_values(grads, measure, cells, lam, mu, thickness, free_index, indptr, offsets, data):
+    """:func:`stiffness_values` of the P1 element (fast path, module docstring): ``grads``
+    (n_cells, d + 1, d) the basis gradients, ``lam``, ``mu`` shape (n_cells,), ``offsets``
+    (n_cells, d + 1, d + 1); the other arguments as there."""
     n_cells, nv, d = grads.shape
     data[:] = 0.0
     gg = np.empty((nv, nv), dtype=np.float64)
@@ -392,19 +482,20 @@ def elasticity_matrix_voigt(lam, mu, d):
     return D
 
 
-def _voigt_B(grads):
-    """Strain-displacement matrices ``B`` (n_cells, 3 or 6, d (d + 1)), engineering shear."""
-    n, nv, d = grads.shape
+def _voigt_B(basis):
+    """Strain-displacement matrices ``B`` (n, 3 or 6, d nl), engineering shear, from basis
+    gradients (n, nl, d) (a cell's, or a point's)."""
+    n, nv, d = basis.shape
     B = np.zeros((n, 3 if d == 2 else 6, d * nv))
     for k in range(nv):
-        gx, gy = grads[:, k, 0], grads[:, k, 1]
+        gx, gy = basis[:, k, 0], basis[:, k, 1]
         if d == 2:
             B[:, 0, 2 * k] = gx
             B[:, 1, 2 * k + 1] = gy
             B[:, 2, 2 * k] = gy
             B[:, 2, 2 * k + 1] = gx
         else:
-            gz = grads[:, k, 2]
+            gz = basis[:, k, 2]
             c = 3 * k
             B[:, 0, c] = gx
             B[:, 1, c + 1] = gy
@@ -415,17 +506,23 @@ def _voigt_B(grads):
     return B
 
 
-def stiffness_reference(grads, measure, cells, lam, mu, thickness):
-    """scipy reference: the full ``K`` (all dofs, CSR) assembled from the Voigt element
-    matrices ``thickness |e| B_e^T D_e B_e`` (``D_e`` of the cell's ``lam[e]``, ``mu[e]``);
-    restrict it to the free dofs to compare with :func:`stiffness_values`."""
-    n, nv, d = grads.shape
-    B = _voigt_B(grads)
-    D = np.stack([elasticity_matrix_voigt(a, b, d) for a, b in zip(lam, mu)])
-    Ke = np.einsum("e,eki,ekl,elj->eij", thickness * measure, B, D, B)
-    dofs = (cells[:, :, None] * d + np.arange(d)).reshape(n, nv * d)
-    rows = np.repeat(dofs, nv * d, axis=1).ravel()
-    cols = np.tile(dofs, (1, nv * d)).ravel()
+def stiffness_reference(basis, measure, weights, cells, lam, mu, thickness):
+    """scipy reference: the full ``K`` (all dofs, CSR) from the Voigt element matrices
+    ``T |e| sum_q w_q B_q^T D_q B_q`` (``D_q`` of ``lam``, ``mu`` at the point, shape
+    (n_cells, n_q) or, with one point, (n_cells,)); restrict it to the free dofs to compare
+    with :func:`stiffness_values` or :func:`p1_stiffness_values` (``basis = grads[:, None]``,
+    ``weights = [1]``)."""
+    n, n_q, nl, d = basis.shape
+    B = _voigt_B(basis.reshape(n * n_q, nl, d)).reshape(n, n_q, 3 if d == 2 else 6, nl * d)
+    D_lam = elasticity_matrix_voigt(1.0, 0.0, d)
+    D_mu = elasticity_matrix_voigt(0.0, 1.0, d)
+    W = thickness * measure[:, None] * np.asarray(weights)[None, :]
+    lam, mu = np.reshape(lam, (n, n_q)), np.reshape(mu, (n, n_q))
+    Ke = (np.einsum("eq,eqki,kl,eqlj->eij", W * lam, B, D_lam, B)
+          + np.einsum("eq,eqki,kl,eqlj->eij", W * mu, B, D_mu, B))
+    dofs = (cells[:, :, None] * d + np.arange(d)).reshape(n, nl * d)
+    rows = np.repeat(dofs, nl * d, axis=1).ravel()
+    cols = np.tile(dofs, (1, nl * d)).ravel()
     n_dofs = d * (int(cells.max()) + 1)
     K = sp.csr_matrix((Ke.ravel(), (rows, cols)), shape=(n_dofs, n_dofs))
     K.sum_duplicates()
@@ -433,7 +530,8 @@ def stiffness_reference(grads, measure, cells, lam, mu, thickness):
 
 
 @njit(cache=True)
-def boundary_product(grads, measure, cells, cell_list, lam, mu, thickness, row_index, col_index, x, sign, out):
+def boundary_product(basis, measure, weights, cells, cell_list, lam, mu, thickness, row_index, col_index, x, sign,
+                     out):
     """``out[row_index[i]] += sign (K_e x)_i``, summed over the cells of ``cell_list``: a block
     of ``K`` times a vector, where only the cells touching a constrained dof contribute.
 
@@ -442,9 +540,40 @@ def boundary_product(grads, measure, cells, cell_list, lam, mu, thickness, row_i
     ``out -= K_fd u_d`` (rows ``free_index``, columns ``con_index``, ``x = u_d``, ``sign =
     -1``) and the reactions ``out += (K u)_d`` (rows ``con_index``, every column, ``x = u``,
     ``sign = +1``). ``cell_list``: the cells with a constrained dof (the others have no
-    ``K_fd`` or ``K_dd`` entry). ``lam``, ``mu``: each cell's effective Lame parameters,
-    shape (n_cells,), as in :func:`stiffness_values`.
+    ``K_fd`` or ``K_dd`` entry). The other arguments as in :func:`stiffness_values`.
     """
+    nl = cells.shape[1]
+    n_q, d = basis.shape[1], basis.shape[3]
+    A = np.empty((nl * d, nl * d), dtype=np.float64)
+    M = np.empty((nl * d, nl * d), dtype=np.float64)
+    Tr = np.empty((nl, nl), dtype=np.float64)
+    for t in range(cell_list.size):
+        e = cell_list[t]
+        _element_parts(basis, measure, weights, e, lam, mu, thickness, A, M, Tr)
+        for k in range(nl):
+            i = cells[e, k]
+            for a in range(d):
+                r = row_index[i * d + a]
+                if r < 0:
+                    continue
+                s = 0.0
+                for m in range(nl):
+                    j = cells[e, m]
+                    for b in range(d):
+                        c = col_index[j * d + b]
+                        if c < 0:
+                            continue
+                        v = A[k * d + a, m * d + b] + M[k * d + b, m * d + a]
+                        if a == b:
+                            v += Tr[k, m]
+                        s += v * x[c]
+                out[r] += sign * s
+
+
+@njit(cache=True)
+def p1_boundary_product(grads, measure, cells, cell_list, lam, mu, thickness, row_index, col_index, x, sign, out):
+    """:func:`boundary_product` of the P1 element (fast path): ``grads`` (n_cells, d + 1, d),
+    ``lam``, ``mu`` shape (n_cells,); the other arguments as there."""
     nv, d = grads.shape[1], grads.shape[2]
     gg = np.empty((nv, nv), dtype=np.float64)
     for q in range(cell_list.size):
@@ -475,8 +604,90 @@ def boundary_product(grads, measure, cells, cell_list, lam, mu, thickness, row_i
 
 
 @njit(cache=True)
-def _displacement_gradient(grads, cells, u, e, G):
-    """``G[a, b] = du_a/dx_b`` on cell ``e`` (P1: constant), written into ``G`` (d, d)."""
+def _displacement_gradient(basis, cells, u, e, q, H):
+    """``H[a, b] = du_a/dx_b`` at point ``q`` of cell ``e``, written into ``H`` (d, d)."""
+    nl, d = basis.shape[2], basis.shape[3]
+    H[:, :] = 0.0
+    for k in range(nl):
+        i = cells[e, k]
+        for a in range(d):
+            ua = u[i * d + a]
+            for b in range(d):
+                H[a, b] += ua * basis[e, q, k, b]
+
+
+@njit(cache=True)
+def point_strain(basis, cells, u):
+    """The strain at every point in Voigt order with *tensor* shear components: 2D
+    ``(e_xx, e_yy, e_xy)``, 3D ``(e_xx, e_yy, e_zz, e_yz, e_xz, e_xy)``; shape
+    (n_cells, n_q, 3 or 6).
+
+    Parameters
+    ----------
+    basis : ndarray, shape (n_cells, n_q, nl, d)
+    cells : ndarray of int64, shape (n_cells, nl)
+    u : ndarray, shape (n_dofs,)
+    """
+    n_cells, n_q, nl, d = basis.shape
+    out = np.empty((n_cells, n_q, 3 if d == 2 else 6), dtype=np.float64)
+    H = np.empty((d, d), dtype=np.float64)
+    for e in range(n_cells):
+        for q in range(n_q):
+            _displacement_gradient(basis, cells, u, e, q, H)
+            if d == 2:
+                out[e, q, 0], out[e, q, 1], out[e, q, 2] = H[0, 0], H[1, 1], 0.5 * (H[0, 1] + H[1, 0])
+            else:
+                out[e, q, 0], out[e, q, 1], out[e, q, 2] = H[0, 0], H[1, 1], H[2, 2]
+                out[e, q, 3] = 0.5 * (H[1, 2] + H[2, 1])
+                out[e, q, 4] = 0.5 * (H[0, 2] + H[2, 0])
+                out[e, q, 5] = 0.5 * (H[0, 1] + H[1, 0])
+    return out
+
+
+def point_strain_reference(basis, cells, u):
+    """NumPy reference of :func:`point_strain`."""
+    d = basis.shape[3]
+    ue = u.reshape(-1, d)[cells]  # (n, nl, d)
+    H = np.einsum("eka,eqkb->eqab", ue, basis)
+    e = 0.5 * (H + np.swapaxes(H, 2, 3))
+    if d == 2:
+        return np.stack([e[..., 0, 0], e[..., 1, 1], e[..., 0, 1]], axis=-1)
+    return np.stack([e[..., 0, 0], e[..., 1, 1], e[..., 2, 2], e[..., 1, 2], e[..., 0, 2], e[..., 0, 1]], axis=-1)
+
+
+@njit(cache=True)
+def energy_density(basis, cells, u, lam, mu):
+    """``psi = 1/2 e:C:e = lam/2 tr(e)^2 + mu e:e`` at every point (undamaged), shape (n_cells, n_q)."""
+    n_cells, n_q, nl, d = basis.shape
+    out = np.empty((n_cells, n_q), dtype=np.float64)
+    H = np.empty((d, d), dtype=np.float64)
+    for e in range(n_cells):
+        for q in range(n_q):
+            _displacement_gradient(basis, cells, u, e, q, H)
+            tr = 0.0
+            ee = 0.0
+            for a in range(d):
+                tr += H[a, a]
+                for b in range(d):
+                    s = 0.5 * (H[a, b] + H[b, a])
+                    ee += s * s
+            out[e, q] = 0.5 * lam * tr * tr + mu * ee
+    return out
+
+
+def energy_density_reference(basis, cells, u, lam, mu):
+    """NumPy reference of :func:`energy_density`: ``1/2 eps_v . D . eps_v`` with the Voigt
+    ``D`` and engineering shears."""
+    d = basis.shape[3]
+    e = point_strain_reference(basis, cells, u)
+    e[..., d:] *= 2.0
+    D = elasticity_matrix_voigt(lam, mu, d)
+    return 0.5 * np.einsum("eqi,ij,eqj->eq", e, D, e)
+
+
+@njit(cache=True)
+def _cell_gradient(grads, cells, u, e, G):
+    """``G[a, b] = du_a/dx_b`` on P1 cell ``e`` (constant), written into ``G`` (d, d)."""
     nv, d = grads.shape[1], grads.shape[2]
     G[:, :] = 0.0
     for k in range(nv):
@@ -488,14 +699,15 @@ def _displacement_gradient(grads, cells, u, e, G):
 
 
 @njit(cache=True)
-def cell_strain(grads, cells, u):
-    """Strain of each cell in Voigt order with *tensor* shear components: 2D
-    ``(e_xx, e_yy, e_xy)``, 3D ``(e_xx, e_yy, e_zz, e_yz, e_xz, e_xy)``; shape (n_cells, 3 or 6)."""
+def p1_strain(grads, cells, u):
+    """:func:`point_strain` of the P1 element (fast path): the strain of each cell, shape
+    (n_cells, 3 or 6), from ``grads`` (n_cells, d + 1, d); the same operations as
+    :func:`point_strain` on ``grads[:, None]``."""
     n_cells, nv, d = grads.shape
     out = np.zeros((n_cells, 3 if d == 2 else 6), dtype=np.float64)
     G = np.empty((d, d), dtype=np.float64)  # displacement gradient du_a/dx_b
     for e in range(n_cells):
-        _displacement_gradient(grads, cells, u, e, G)
+        _cell_gradient(grads, cells, u, e, G)
         if d == 2:
             out[e, 0], out[e, 1], out[e, 2] = G[0, 0], G[1, 1], 0.5 * (G[0, 1] + G[1, 0])
         else:
@@ -506,25 +718,15 @@ def cell_strain(grads, cells, u):
     return out
 
 
-def cell_strain_reference(grads, cells, u):
-    """NumPy reference of :func:`cell_strain`."""
-    n, nv, d = grads.shape
-    ue = u.reshape(-1, d)[cells]  # (n, nv, d)
-    G = np.einsum("eka,ekb->eab", ue, grads)
-    eps = 0.5 * (G + np.transpose(G, (0, 2, 1)))
-    if d == 2:
-        return np.column_stack([eps[:, 0, 0], eps[:, 1, 1], eps[:, 0, 1]])
-    return np.column_stack([eps[:, 0, 0], eps[:, 1, 1], eps[:, 2, 2], eps[:, 1, 2], eps[:, 0, 2], eps[:, 0, 1]])
-
-
 @njit(cache=True)
-def strain_energy_density(grads, cells, u, lam, mu):
-    """``psi_e = 1/2 e:C:e = lam/2 tr(e)^2 + mu e:e`` of every cell (undamaged), shape (n_cells,)."""
+def p1_energy_density(grads, cells, u, lam, mu):
+    """:func:`energy_density` of the P1 element (fast path): shape (n_cells,), from ``grads``
+    (n_cells, d + 1, d)."""
     n_cells, nv, d = grads.shape
     out = np.empty(n_cells, dtype=np.float64)
     G = np.empty((d, d), dtype=np.float64)
     for e in range(n_cells):
-        _displacement_gradient(grads, cells, u, e, G)
+        _cell_gradient(grads, cells, u, e, G)
         tr = 0.0
         ee = 0.0
         for a in range(d):
@@ -536,19 +738,10 @@ def strain_energy_density(grads, cells, u, lam, mu):
     return out
 
 
-def strain_energy_density_reference(grads, cells, u, lam, mu):
-    """NumPy reference of :func:`strain_energy_density`: ``1/2 eps_v . D . eps_v`` with the
-    Voigt ``D`` and engineering shears."""
-    d = grads.shape[2]
-    e = cell_strain_reference(grads, cells, u)
-    e[:, d:] *= 2.0
-    D = elasticity_matrix_voigt(lam, mu, d)
-    return 0.5 * np.einsum("ei,ij,ej->e", e, D, e)
-
-
 @njit(cache=True)
 def nodal_energy(psi, measure, cells, thickness, out):
-    """``out_i = thickness sum_{e ni i} |e| psi_e / (d + 1)`` (``out`` overwritten)."""
+    """``out_i = thickness sum_{e ni i} |e| psi_e / (d + 1)`` (``out`` overwritten; ``cells``
+    the mesh's, ``psi`` (n_cells,) each cell's mean density)."""
     n_cells, nv = cells.shape
     out[:] = 0.0
     for e in range(n_cells):

@@ -67,15 +67,12 @@ def build_model(scene, mesh):
     """
     from fem3d.damage import P1Damage
     from fem3d.elasticity import Elasticity
+    from fem3d.elements import make_space
     from fem3d.model import FemModel, Loads
     from thinfilm.solvers.linear import make_solver
 
     m = scene.model
-    space = None
-    if m.element == "P2":
-        from fem3d.quadratic import QuadraticSpace
-
-        space = QuadraticSpace(mesh)   # the displacement's nodes: vertices, then edge midpoints
+    space = make_space(m.element, mesh)   # the displacement's element: its nodes, rule and loads
     loads = Loads(mesh, scene.load, m.thickness, scene.source, space=space)
     fixed = []
     modulus = np.ones(mesh.n_cells)
@@ -89,14 +86,8 @@ def build_model(scene, mesh):
     for region, E_b in m.buffers:
         modulus[mesh.cell_groups[region]] = E_b / m.E
     fixed_nodes = np.unique(np.concatenate(fixed)) if fixed else None
-    if space is None:
-        element, extra = Elasticity, {}
-    else:
-        from fem3d.quadratic_elasticity import QuadraticElasticity
-
-        element, extra = QuadraticElasticity, {"space": space}
-    elasticity = element(mesh, m.E, m.nu, plane=m.plane if m.dim == 2 else "stress", thickness=m.thickness,
-                         k_res=m.k_res, constrained=loads.constrained, modulus=modulus, split=m.split, **extra)
+    elasticity = Elasticity(mesh, m.E, m.nu, plane=m.plane if m.dim == 2 else "stress", thickness=m.thickness,
+                            k_res=m.k_res, constrained=loads.constrained, modulus=modulus, split=m.split, space=space)
     damage = P1Damage(mesh, m.Gc, m.eps, at=m.at, thickness=m.thickness, fixed_nodes=fixed_nodes)
     K = elasticity.matrix(np.zeros(mesh.n_nodes))
     kind = scene.solver.linear
@@ -211,12 +202,9 @@ class FemKind(EvolutionKind):
 
         observables = ((("force", "displacement") if loaded else ()) + tuple(f"force_{g}" for g in loaded[1:])
                        + (("split_solves", "split_switches") if m.split != "none" else ()))
-        if m.element == "P2":
-            # /mesh is the P1 mesh (the damage's, what the plots and XDMF draw) with its edges;
-            # /fields/u holds the vertices' values, then the edge midpoints'
-            discretization, sizes = model.elasticity.space.description(), {"u": model.elasticity.n_dofs}
-        else:
-            discretization, sizes = mesh.description(), {}
+        # /mesh is the P1 mesh (the damage's, what the plots and XDMF draw) and what the element
+        # adds (P2: its edges); /fields/u holds the vertices' values, then the other nodes'
+        discretization, sizes = model.elasticity.space.description(), {"u": model.elasticity.n_dofs}
         return Setup(model=model, discretization=discretization, components={"u": mesh.dim}, sizes=sizes,
                      observe=observe, observables=observables, log=lines)
 

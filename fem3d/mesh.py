@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Mesh"]
+__all__ = ["Mesh", "index_array", "mesh_geometry"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,3 +97,53 @@ class Mesh:
         from thinfilm.discretization import SimplexMesh
 
         return SimplexMesh(self.points, self.cells)
+
+
+def index_array(name, value, size) -> np.ndarray:
+    """``value`` as a strictly increasing int64 array of indices in ``[0, size)``.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``, if ``value`` is not a 1D integer array, has an entry outside
+        ``[0, size)``, or is not sorted without repeats.
+    """
+    a = np.asarray(value)
+    if a.ndim != 1 or not (a.size == 0 or np.issubdtype(a.dtype, np.integer)):
+        raise ValueError(f"{name} must be a 1D array of integers, got shape {a.shape} and dtype {a.dtype}")
+    a = a.astype(np.int64)
+    if a.size and (a[0] < 0 or a[-1] >= size):
+        raise ValueError(f"{name} has entries outside [0, {size}): min {a.min()}, max {a.max()}")
+    if np.any(np.diff(a) <= 0):
+        raise ValueError(f"{name} must be sorted without repeats")
+    return a
+
+
+def mesh_geometry(mesh: Mesh):
+    """``(grads, measure)`` of the mesh's cells (:func:`fem3d.kernels.cell_geometry`: the P1
+    basis gradients, shape (n_cells, d + 1, d), and the areas or volumes, shape (n_cells,)),
+    after checking that no cell is degenerate and every node belongs to a cell.
+
+    Raises
+    ------
+    TypeError
+        If ``mesh`` is no :class:`Mesh`.
+    ValueError
+        Naming the first degenerate cell or the first node of no cell.
+    """
+    from fem3d import kernels   # Numba: loaded with the operators, not with the mesh
+
+    if not isinstance(mesh, Mesh):
+        raise TypeError(f"mesh = {mesh!r} must be a fem3d.mesh.Mesh")
+    grads, measure = kernels.cell_geometry(mesh.points, mesh.cells)
+    bad = np.flatnonzero(~(measure > 0) | ~np.isfinite(measure))
+    if bad.size:
+        raise ValueError(f"{bad.size} degenerate cell(s) (zero area or volume), the first: cell {bad[0]}"
+                         f" with vertices {mesh.cells[bad[0]].tolist()}")
+    used = np.zeros(mesh.n_nodes, dtype=bool)
+    used[mesh.cells.ravel()] = True
+    if not used.all():
+        orphans = np.flatnonzero(~used)
+        raise ValueError(f"{orphans.size} node(s) belong to no cell (their unknowns would be undetermined),"
+                         f" the first: node {orphans[0]}")
+    return grads, measure

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fem3d.elements.p1 import P1Space
 from fem3d.mesh import Mesh
 from thinfilm.scene import SceneError
 
@@ -36,10 +37,11 @@ class Loads:
         2D slab thickness (tractions are per unit area of the slab's faces).
     source : str
         The scene file, for messages naming a missing group.
-    space : fem3d.quadratic.QuadraticSpace, optional
-        The displacement's nodes when they are not the mesh's vertices (P2): prescribed
-        displacements then hold on all the P2 nodes of a group, tractions give the consistent
-        P2 facet load, and the dofs and load vectors run over the P2 nodes.
+    space : fem3d.elements.space.Space, optional
+        The displacement's element on ``mesh`` (default P1: the mesh's vertices). Prescribed
+        displacements hold on all the space's nodes of a group, tractions give its consistent
+        facet load (:meth:`~fem3d.elements.space.Space.facet_load`), and the dofs and load
+        vectors run over its nodes.
 
     Attributes
     ----------
@@ -62,8 +64,7 @@ class Loads:
 
     def __init__(self, mesh: Mesh, loading, thickness=1.0, source="<string>", space=None):
         d = mesh.dim
-        self.space = space
-        nodes_of = mesh if space is None else space   # the displacement's nodes and their groups
+        self.space = nodes_of = P1Space(mesh) if space is None else space   # the displacement's nodes and groups
         values, constant = {}, {}
         for group in loading.fixed:
             for node in self._nodes(nodes_of, group, "load.fixed", source):
@@ -108,25 +109,18 @@ class Loads:
     def _force(self, mesh, traction, force, thickness, name, source):
         """The load vector of tractions on boundaries and forces shared by groups' nodes."""
         d = mesh.dim
-        nodes_of = mesh if self.space is None else self.space
-        f = np.zeros(nodes_of.n_nodes * d)
+        f = np.zeros(self.space.n_nodes * d)
         for group, vector in traction:
             facets = mesh.facet_groups.get(group)
             if facets is None:
                 raise SceneError(source, f"{name}.traction.{group}", f"no boundary {group!r} in the mesh (its"
                                  f" boundaries: {', '.join(sorted(mesh.facet_groups)) or '-'})")
             area = _facet_measures(mesh.points, facets) * (thickness if d == 2 else 1.0)
-            if self.space is not None:
-                # P2 facet load: the integrals of the facet's P2 basis functions
-                p2_facets, shares = self.space.facet_load(facets, f"{name}.traction.{group}")
-                for c in range(d):
-                    np.add.at(f, p2_facets * d + c, area[:, None] * shares * vector[c])
-                continue
+            nodes, shares = self.space.facet_load(facets, area, f"{name}.traction.{group}")
             for c in range(d):
-                # P1 facet load: each vertex gets 1/d of the facet's share (exact for a constant traction).
-                np.add.at(f, facets * d + c, np.repeat(area[:, None] / d, d, axis=1) * vector[c])
+                np.add.at(f, nodes * d + c, shares * vector[c])
         for group, vector in force:
-            nodes = self._nodes(nodes_of, group, f"{name}.force.{group}", source)
+            nodes = self._nodes(self.space, group, f"{name}.force.{group}", source)
             for c in range(d):
                 f[nodes * d + c] += vector[c] / len(nodes)
         return f
@@ -151,13 +145,13 @@ def _facet_measures(points, facets):
 
 
 class FemModel:
-    """Elasticity (P1 or P2 displacements) with AT damage on a mesh, in the engine's protocol.
+    """Elasticity (any displacement element) with AT damage on a mesh, in the engine's protocol.
 
     Parameters
     ----------
     mesh : Mesh
-    elasticity : fem3d.elasticity.Elasticity or fem3d.quadratic_elasticity.QuadraticElasticity
-        Built with the loads' constrained dofs.
+    elasticity : fem3d.elasticity.Elasticity
+        Built on the loads' space with their constrained dofs.
     damage : fem3d.damage.P1Damage
     loads : Loads
     linear_solver : object

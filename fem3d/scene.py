@@ -53,6 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from fem3d import specimens
+from fem3d.elements import ELEMENTS as ELEMENT_REGISTRY
 from fem3d.mesh_check import FINE_PERCENTILE, element_sizes, fine_size
 from fem3d.specimens.specimen import Extent
 from fem3d.split import SPLITS
@@ -69,8 +70,8 @@ EPS_PER_H_MIN = 0.5
 EPS_PER_SIZE_MAX = 0.5
 #: A mesh file's declared ``mesh.h`` must be within this factor of its measured fine size.
 H_FACTOR = 2.0
-#: Displacement elements (``[model] element``).
-ELEMENTS = ("P1", "P2")
+#: Displacement elements (``[model] element``): those of the registry, :data:`fem3d.elements.ELEMENTS`.
+ELEMENTS = tuple(ELEMENT_REGISTRY)
 
 
 @dataclass(frozen=True)
@@ -101,7 +102,7 @@ class FemModelParameters:
     split : {"none", "amor", "positive"}
         The part of the strain energy the damage degrades (:mod:`fem3d.split`).
     element : {"P1", "P2"}
-        The displacement's element (:mod:`fem3d.quadratic_elasticity` for P2); the damage is
+        The displacement's element (:mod:`fem3d.elements`); the damage is
         P1 on the vertices either way.
     """
 

@@ -72,7 +72,7 @@ def compressive_damage(res, k):
     u = res.nodal("u", k)[: points.shape[0] * 3]
     alpha = res.nodal("alpha", k)
     grads, measure = kernels.cell_geometry(points, cells)
-    strain = kernels.cell_strain(grads, cells, u)
+    strain = kernels.p1_strain(grads, cells, u)
     z = points[cells, 2].mean(axis=1)
     broken = alpha[cells].mean(axis=1) >= 0.9
     compressed = ~splits.tension(strain, 3)

@@ -1,4 +1,4 @@
-"""P1 elasticity (:mod:`fem3d.elasticity`, :mod:`fem3d.kernels`): kernels against their NumPy
+"""P1 elasticity (:mod:`fem3d.elasticity`, :mod:`fem3d.kernels`, :mod:`fem3d.elements.p1`): kernels against their NumPy
 references and against scikit-fem, the patch test, convergence to a manufactured solution,
 plane stress against plane strain, reactions as the derivative of the energy.
 
@@ -112,7 +112,8 @@ def test_kernels_against_references(dim, plane):
     gbar = el.degradation(alpha)
     np.testing.assert_allclose(gbar, kernels.cell_degradation_reference(alpha, mesh.cells, el.k_res), rtol=1e-15)
 
-    K_full = kernels.stiffness_reference(el.grads, el.measure, mesh.cells, gbar * el.lam, gbar * el.mu, T)
+    K_full = kernels.stiffness_reference(el.space.basis_gradients, el.measure, el.space.weights, mesh.cells,
+                                         gbar * el.lam, gbar * el.mu, T)
     free = el.free
     K = el.matrix(alpha)
     assert K.shape == (free.size, free.size) and K.has_sorted_indices and K.nnz == el.nnz
@@ -134,9 +135,10 @@ def test_kernels_against_references(dim, plane):
     assert rel_diff(el.reactions(alpha, u), (K_full @ u)[con]) < 1e-13
 
     psi = el.strain_energy_density(u)
-    np.testing.assert_allclose(psi, kernels.strain_energy_density_reference(el.grads, mesh.cells, u, el.lam, el.mu),
+    basis = el.space.basis_gradients
+    np.testing.assert_allclose(psi, kernels.energy_density_reference(basis, mesh.cells, u, el.lam, el.mu)[:, 0],
                                rtol=1e-13)
-    np.testing.assert_allclose(el.strain(u), kernels.cell_strain_reference(el.grads, mesh.cells, u), rtol=1e-13,
+    np.testing.assert_allclose(el.strain(u), kernels.point_strain_reference(basis, mesh.cells, u)[:, 0], rtol=1e-13,
                                atol=1e-14 * np.abs(el.strain(u)).max())
     c = el.nodal_energy(u)
     np.testing.assert_allclose(c, kernels.nodal_energy_reference(psi, el.measure, mesh.cells, T, mesh.n_nodes),

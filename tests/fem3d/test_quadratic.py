@@ -1,5 +1,5 @@
-"""P2 displacements (:mod:`fem3d.quadratic`, :mod:`fem3d.quadratic_kernels`,
-:mod:`fem3d.quadratic_elasticity`): quadrature rules, the node set and its groups, kernels
+"""P2 displacements (:mod:`fem3d.elements.p2`, :mod:`fem3d.kernels`, :mod:`fem3d.elasticity`):
+quadrature rules, the node set and its groups, kernels
 against their NumPy references, the energy in the damage variables, patch tests (linear and
 quadratic fields), third-order L2 convergence to a manufactured solution, bending against P1
 and the beam, and a scene with ``element = "P2"`` run, indexed and resumed bit for bit.
@@ -19,13 +19,12 @@ import numpy as np
 import pytest
 import scipy.sparse.linalg as spla
 
-from fem3d import kernels, quadratic_kernels as qk
+from fem3d import kernels
 from fem3d.elasticity import Elasticity
+from fem3d.elements.p2 import FACET_SHARES, LOCAL_EDGES, STIFFNESS_RULES, P2Space, basis_values
+from fem3d.elements.quadrature import collapsed_gauss
 from fem3d.mesh import Mesh
 from fem3d.model import Loads
-from fem3d.quadratic import (FACET_SHARES, LOCAL_EDGES, STIFFNESS_RULES, QuadraticSpace, basis_values,
-                             collapsed_gauss)
-from fem3d.quadratic_elasticity import QuadraticElasticity
 from fem3d.scene import Loading
 from tests.fem3d.checks import force_and_moment
 from tests.fem3d.manufactured import PH2, PH3, W2, W3, body_force, exact_fields
@@ -113,7 +112,7 @@ def test_node_set_and_groups(dim):
     left = np.flatnonzero(mesh.points[mesh.cells].mean(axis=1)[:, 0] < 0.3)
     mesh = Mesh(mesh.points, mesh.cells, cell_groups={"left": left}, facet_groups={"bottom": bottom},
                 node_groups={"corner": corner})
-    space = QuadraticSpace(mesh)
+    space = P2Space(mesh)
     n_edges = {2: 3 * 5 * 4 + 5 + 4, 3: None}[dim]   # 2D: n_x n_y (3 per rectangle) + n_x + n_y
     if n_edges is not None:
         assert space.n_edges == n_edges
@@ -148,18 +147,22 @@ def test_kernels_against_references(dim, plane):
     in one component only."""
     mesh = small_mesh(dim)
     rng = np.random.default_rng(1)
-    space = QuadraticSpace(mesh)
+    space = P2Space(mesh)
     bnd = p2_boundary_nodes(space)
     part = rng.choice(np.setdiff1d(np.arange(space.n_nodes), bnd), size=4, replace=False)
     con = np.union1d(dofs_of(bnd[::2], dim), part * dim + 1)
     T = 1.7 if dim == 2 else 1.0
-    el = QuadraticElasticity(mesh, E, NU, plane=plane or "stress", thickness=T, k_res=1e-3, constrained=con,
-                             space=space)
-    edges, bary, w = LOCAL_EDGES[dim], el.bary, el.weights
-    np.testing.assert_allclose(qk.basis_gradients(el.grads, bary, edges),
-                               qk.basis_gradients_reference(el.grads, bary, edges), rtol=0, atol=1e-12)
-    lam, mu = rng.random((2, mesh.n_cells, el.n_q)) + 0.1
-    K_full = qk.stiffness_reference(el.grads, el.measure, space.cells, edges, bary, w, lam, mu, T)
+    el = Elasticity(mesh, E, NU, plane=plane or "stress", thickness=T, k_res=1e-3, constrained=con, space=space)
+    bary, w = space.bary, space.weights
+    # the basis gradients against the chain rule on central differences in the barycentric
+    # coordinates (exact for the quadratic basis)
+    step = 0.5 * np.eye(dim + 1)
+    dphi = np.stack([(basis_values(bary + step[k], dim) - basis_values(bary - step[k], dim)) / 1.0
+                     for k in range(dim + 1)], axis=2)   # (n_q, nl, d + 1)
+    np.testing.assert_allclose(space.basis_gradients, np.einsum("qlk,ekc->eqlc", dphi, el.grads), rtol=0,
+                               atol=1e-12)
+    lam, mu = rng.random((2, mesh.n_cells, space.n_q)) + 0.1
+    K_full = kernels.stiffness_reference(space.basis_gradients, el.measure, w, space.cells, lam, mu, T)
     K = el.matrix(None, lame=(lam, mu))
     free = el.free
     assert K.shape == (free.size, free.size) and K.has_sorted_indices and K.nnz == el.nnz
@@ -177,13 +180,16 @@ def test_kernels_against_references(dim, plane):
     rhs = el.rhs(None, u_d, f, lame=(lam, mu))
     assert rel_diff(rhs, f[free] - K_full[free][:, con] @ u_d) < 1e-13
     assert rel_diff(el.reactions(None, u, f, lame=(lam, mu)), K_full[con] @ u - f[con]) < 1e-13
-    np.testing.assert_allclose(el.strain(u), qk.point_strain_reference(el.grads, space.cells, edges, bary, u),
+    np.testing.assert_allclose(el.strain(u), kernels.point_strain_reference(space.basis_gradients, space.cells, u),
                                rtol=0, atol=1e-12 * np.abs(el.strain(u)).max())
+    np.testing.assert_allclose(kernels.energy_density(space.basis_gradients, space.cells, u, el.lam, el.mu),
+                               kernels.energy_density_reference(space.basis_gradients, space.cells, u, el.lam, el.mu),
+                               rtol=1e-12)
     # the default Lame parameters: gbar_e times the cell's modulus, the same at every point
     alpha = rng.random(mesh.n_nodes)
     gbar = el.degradation(alpha)
     lam_q, mu_q = el.lame(alpha)
-    np.testing.assert_array_equal(lam_q, np.repeat((gbar * el.lam)[:, None], el.n_q, axis=1))
+    np.testing.assert_array_equal(lam_q, np.repeat((gbar * el.lam)[:, None], space.n_q, axis=1))
     np.testing.assert_array_equal(el.matrix(alpha).data, el.matrix(None, lame=(lam_q, mu_q)).data)
 
 
@@ -196,7 +202,7 @@ def test_energy_in_the_damage_variables(dim, split):
     rng = np.random.default_rng(4)
     modulus = np.where(mesh.points[mesh.cells].mean(axis=1)[:, 0] < 0.4, 0.1, 1.0)
     T = 0.6 if dim == 2 else 1.0
-    el = QuadraticElasticity(mesh, E, NU, thickness=T, k_res=1e-3, modulus=modulus, split=split)
+    el = Elasticity(mesh, E, NU, thickness=T, k_res=1e-3, modulus=modulus, split=split, space=P2Space(mesh))
     u = rng.standard_normal(el.n_dofs)
     alpha = rng.random(mesh.n_nodes)
     P = el.elastic_energy(u, alpha)
@@ -206,12 +212,12 @@ def test_energy_in_the_damage_variables(dim, split):
     minus = T * np.dot(el.measure, el.cell_mean(el.energy_parts(u)[1]))
     assert P == pytest.approx(c @ g + minus, rel=1e-12)
     if split == "none":
-        K_full = qk.stiffness_reference(el.grads, el.measure, el.space.cells, LOCAL_EDGES[dim], el.bary, el.weights,
-                                        *el.lame(alpha), T)
+        K_full = kernels.stiffness_reference(el.space.basis_gradients, el.measure, el.space.weights, el.space.cells,
+                                             *el.lame(alpha), T)
         assert P == pytest.approx(0.5 * u @ (K_full @ u), rel=1e-12)
         # the quadrature is exact: a finer rule gives the same cell energies
         bary, w = collapsed_gauss(dim, 3)
-        strain = qk.point_strain(el.grads, el.space.cells, LOCAL_EDGES[dim], bary, u)
+        strain = kernels.point_strain(np.ascontiguousarray(el.space.gradients_at(bary)), el.space.cells, u)
         tr = strain[..., :dim].sum(axis=-1)
         ee = (strain[..., :dim] ** 2).sum(axis=-1) + 2 * (strain[..., dim:] ** 2).sum(axis=-1)
         psi = (0.5 * el.lam * tr ** 2 + el.mu * ee) @ w * modulus
@@ -219,22 +225,22 @@ def test_energy_in_the_damage_variables(dim, split):
     else:
         # the switch at each point; the frozen stiffness at u's own switch gives u's energy
         tension = el.tension(u)
-        assert tension.shape == (mesh.n_cells, el.n_q) and tension.any() and not tension.all()
-        K_full = qk.stiffness_reference(el.grads, el.measure, el.space.cells, LOCAL_EDGES[dim], el.bary, el.weights,
-                                        *el.lame(alpha, tension), T)
+        assert tension.shape == (mesh.n_cells, el.space.n_q) and tension.any() and not tension.all()
+        K_full = kernels.stiffness_reference(el.space.basis_gradients, el.measure, el.space.weights, el.space.cells,
+                                             *el.lame(alpha, tension), T)
         assert 0.5 * u @ (K_full @ u) == pytest.approx(P, rel=1e-12)
 
 
 def test_validation():
     mesh = small_mesh(2)
-    space = QuadraticSpace(mesh)
+    space = P2Space(mesh)
     with pytest.raises(ValueError, match="sorted"):
-        QuadraticElasticity(mesh, E, NU, constrained=[5, 1])
+        Elasticity(mesh, E, NU, constrained=[5, 1], space=space)
     with pytest.raises(ValueError, match="outside"):
-        QuadraticElasticity(mesh, E, NU, constrained=[2 * space.n_nodes])
+        Elasticity(mesh, E, NU, constrained=[2 * space.n_nodes], space=space)
     with pytest.raises(ValueError, match="space"):
-        QuadraticElasticity(mesh, E, NU, space=QuadraticSpace(small_mesh(2)))
-    el = QuadraticElasticity(mesh, E, NU, space=space)
+        Elasticity(mesh, E, NU, space=P2Space(small_mesh(2)))
+    el = Elasticity(mesh, E, NU, space=space)
     with pytest.raises(ValueError, match="alpha"):
         el.matrix(np.zeros(space.n_nodes))
     with pytest.raises(ValueError, match="lame"):
@@ -252,9 +258,9 @@ def test_patch(dim, plane):
     node; the reactions balance the body force in force and moment."""
     mesh = small_mesh(dim, jitter=0.4)
     rng = np.random.default_rng(3)
-    space = QuadraticSpace(mesh)
+    space = P2Space(mesh)
     con = dofs_of(p2_boundary_nodes(space), dim)
-    el = QuadraticElasticity(mesh, E, NU, plane=plane or "stress", constrained=con, space=space)
+    el = Elasticity(mesh, E, NU, plane=plane or "stress", constrained=con, space=space)
     alpha = np.zeros(mesh.n_nodes)
     G, u0 = rng.standard_normal((dim, dim)), rng.standard_normal(dim)
     u_lin = space.interpolate(lambda x: u0 + x @ G.T)
@@ -298,7 +304,7 @@ def test_traction_load_gives_the_uniform_stress_state(dim):
     if dim == 3:
         nodes["top"] = np.flatnonzero(np.all(mesh.points == [0.0, ly, 0.0], axis=1))
     mesh = Mesh(mesh.points, mesh.cells, facet_groups=groups, node_groups=nodes)
-    space = QuadraticSpace(mesh)
+    space = P2Space(mesh)
     displacement = [("left", 0, 0.0), ("corner", 1, 0.0)] + ([("corner", 2, 0.0), ("top", 2, 0.0)] if dim == 3 else [])
     loading = Loading(t_max=1.0, steps=1, displacement=tuple(displacement),
                       traction=(("right", (s,) + (0.0,) * (dim - 1)),))
@@ -309,7 +315,7 @@ def test_traction_load_gives_the_uniform_stress_state(dim):
         assert np.all(loads.unit_force[: mesh.n_nodes * dim] == 0.0)
     # the left face's P2 nodes are held in x (its midpoints too)
     assert np.isin(dofs_of(space.nodes_of("left"), dim)[0::dim], loads.constrained).all()
-    el = QuadraticElasticity(mesh, E, nu, thickness=T, k_res=0.0, constrained=loads.constrained, space=space)
+    el = Elasticity(mesh, E, nu, thickness=T, k_res=0.0, constrained=loads.constrained, space=space)
     u = solve(el, np.zeros(mesh.n_nodes), loads.values_at(1.0), loads.force_at(1.0))
     stress = el.stress(u)
     np.testing.assert_allclose(stress[..., 0], s, rtol=1e-10)
@@ -323,9 +329,9 @@ def test_traction_load_gives_the_uniform_stress_state(dim):
 def manufactured_l2_error(mesh, plane):
     d = mesh.dim
     W, PH = (W2, PH2) if d == 2 else (W3, PH3)
-    space = QuadraticSpace(mesh)
+    space = P2Space(mesh)
     con = dofs_of(p2_boundary_nodes(space), d)
-    el = QuadraticElasticity(mesh, E, NU, plane=plane or "stress", k_res=0.0, constrained=con, space=space)
+    el = Elasticity(mesh, E, NU, plane=plane or "stress", k_res=0.0, constrained=con, space=space)
     f = el.body_force(lambda x: body_force(x, W, PH, el.lam, el.mu), n=4)
     u_exact = space.interpolate(lambda x: exact_fields(x, W, PH)[0])
     u = solve(el, np.zeros(mesh.n_nodes), u_exact[con], f)
@@ -353,11 +359,11 @@ def cantilever_compliance(n, element):
     mesh = tet_mesh((10 * n, n, n), (L, 1.0, 1.0))
     mesh = Mesh(mesh.points, mesh.cells, facet_groups={"clamp": boundary_facets(mesh, lambda p: p[:, 0] == 0.0),
                                                        "tip": boundary_facets(mesh, lambda p: p[:, 0] == L)})
-    space = QuadraticSpace(mesh) if element == "P2" else None
+    space = P2Space(mesh) if element == "P2" else None
     loading = Loading(t_max=1.0, steps=1, fixed=("clamp",), traction=(("tip", (0.0, 0.0, -1.0)),))
     loads = Loads(mesh, loading, 1.0, space=space)
     options = dict(k_res=0.0, constrained=loads.constrained)
-    el = (QuadraticElasticity(mesh, 1.0, 0.0, space=space, **options) if element == "P2"
+    el = (Elasticity(mesh, 1.0, 0.0, space=space, **options) if element == "P2"
           else Elasticity(mesh, 1.0, 0.0, **options))
     f = loads.force_at(1.0)
     u = solve(el, np.zeros(mesh.n_nodes), loads.values_at(1.0), f)
