@@ -176,14 +176,23 @@ class FemKind(EvolutionKind):
     def parse(self, source, data, text):
         return fem_scene.parse(source, data, text)
 
+    def estimate(self, scene):
+        """Memory of the run, before anything is meshed (:func:`fem3d.resources.estimate`)."""
+        from fem3d.resources import estimate
+
+        return estimate(scene)
+
     def setup(self, scene):
         mesh = build_mesh(scene)
         model = build_model(scene, mesh)
         m, loads = scene.model, model.loads
         loaded = list(loads.loaded)
         lines = [f"mesh: {mesh.dim}D, {mesh.n_nodes} nodes, {mesh.n_cells} {'triangles' if mesh.dim == 2 else 'tetrahedra'};"
-                 f" h = {scene.mesh.h:g} where the crack may run (eps/h = {m.eps / scene.mesh.h:.3g}),"
-                 f" {scene.mesh.h_coarse:g} elsewhere",
+                 + (f" elements of {scene.mesh.h:.4g} where finest (measured: the 5th percentile of their longest"
+                    f" edges; eps/h = {m.eps / scene.mesh.h:.3g}), up to {scene.mesh.h_coarse:.4g}"
+                    if scene.mesh.measured else
+                    f" h = {scene.mesh.h:g} where the crack may run (eps/h = {m.eps / scene.mesh.h:.3g}),"
+                    f" {scene.mesh.h_coarse:g} elsewhere"),
                  f"u-solve: {model.linear_solver.kind}, {m.element}, {model.elasticity.free.size} free dofs;"
                  f" damage held at 0 on {0 if model.damage.fixed_nodes is None else model.damage.fixed_nodes.size}"
                  " nodes"]

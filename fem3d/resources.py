@@ -23,7 +23,7 @@ estimated.
 
 from __future__ import annotations
 
-from thinfilm.resources import BASE_BYTES, STEP_BYTES, Estimate, Size, count, size
+from thinfilm.resources import BASE_BYTES, STEP_BYTES, Estimate, Size, count, size, steps_estimate
 
 __all__ = ["NODE_BYTES", "P2_NODES", "nodes", "estimate"]
 
@@ -34,18 +34,20 @@ P2_NODES = {2: 4.0, 3: 8.0}
 
 
 def nodes(scene):
-    """The mesh's nodes: exact for a mesh file, else the specimen's estimate."""
+    """The mesh's nodes: exact for a mesh file (read by the scene reader, kept), else the
+    specimen's estimate; None for a specimen without an extent."""
     from fem3d import specimens
+    from fem3d.specimens.file import read
 
     g, m = scene.geometry, scene.model
-    record = specimens.get(g.kind)
-    if record.extent is None:
-        return float(record.make(m.dim, scene.mesh.h, scene.mesh.h_coarse, g.options).n_nodes)
-    return record.nodes_estimate(m.dim, scene.mesh.h, scene.mesh.h_coarse, g.options)
+    if g.file is not None:
+        return float(read(g.file).n_nodes)
+    return specimens.get(g.kind).nodes_estimate(m.dim, scene.mesh.h, scene.mesh.h_coarse, g.options)
 
 
 def estimate(scene):
-    """What the run of ``scene`` needs.
+    """What the run of ``scene`` needs (from its steps alone for a specimen without an
+    extent: :func:`thinfilm.resources.steps_estimate`).
 
     Returns
     -------
@@ -54,6 +56,8 @@ def estimate(scene):
     """
     d = scene.model.dim
     n = nodes(scene)
+    if n is None:
+        return steps_estimate(scene)
     per_vertex = P2_NODES[d] if scene.model.element == "P2" else 1.0
     steps = scene.load.steps + 1
     model = n * NODE_BYTES[d] * per_vertex

@@ -445,7 +445,7 @@ def _sizes(source, data, model, geometry):
     record = specimens.get(geometry.kind)
     table = Table(source, "mesh", data.get("mesh", {}), ("h", "h_coarse", "check_eps"))
     check_eps = table.boolean("check_eps", default=True)
-    if record.extent is None:
+    if geometry.file is not None:
         mesh, extent = _mesh_file(source, model, geometry)
         cell_sizes = element_sizes(mesh.points, mesh.cells)
         measured = fine_size(mesh.points, mesh.cells)
@@ -463,8 +463,8 @@ def _sizes(source, data, model, geometry):
         sizes = MeshSizes(h=h, h_coarse=table.number("h_coarse", minimum=0, default=h))
         if sizes.h_coarse < sizes.h:
             table._fail("h_coarse", sizes.h_coarse, f"must be >= mesh.h = {h:g}")
-        extent = record.extent_of(model.dim, geometry.options)
-    side = extent.size
+        extent = record.extent_of(model.dim, geometry.options)   # None: not known before meshing
+    side = math.inf if extent is None else extent.size
     if sizes.h > 0.5 * side:
         key, value = ("h", sizes.h) if table.has("h") else ("h_coarse", sizes.h)
         table._fail(key, value, f"must be at most half the specimen's largest side, {side:.4g}: the mesh would have"

@@ -84,3 +84,15 @@ def small_mesh(dim, jitter=0.3):
 def to_skfem(mesh):
     cls = skfem.MeshTri if mesh.dim == 2 else skfem.MeshTet
     return cls(mesh.points.T.copy(), mesh.cells.T.copy())
+
+
+def boundary_nodes(mesh):
+    """Nodes on the faces of the mesh's bounding box."""
+    lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
+    tol = 1e-12 * float(np.ptp(mesh.points, axis=0).max())
+    return np.flatnonzero(np.any((mesh.points < lo + tol) | (mesh.points > hi - tol), axis=1))
+
+
+def node_dofs(nodes, dim, components=None):
+    comps = range(dim) if components is None else components
+    return np.sort(np.concatenate([np.asarray(nodes) * dim + a for a in comps]))

@@ -136,3 +136,35 @@ def test_a_group_the_mesh_lacks_is_refused(tmp_path, capsys):
 def test_a_meaningless_regularization_is_refused(tmp_path, capsys, eps, mesh, detail):
     line = _refused(tmp_path, capsys, GOOD, eps=eps, mesh=mesh)
     assert detail in line, line
+
+
+@pytest.mark.parametrize("case, h", [("lpanel", 1e-6), ("lpanel_3d", 1.0), ("brokenshire", 0.5)])
+def test_a_size_that_cannot_fit_is_refused_before_meshing(tmp_path, capsys, case, h):
+    from tests.helpers import CASES
+
+    scene = tmp_path / f"{case}.toml"
+    scene.write_text((CASES / f"{case}.toml").read_text())
+    (tmp_path / "winkler_lpanel_series_a.csv").write_text((CASES / "winkler_lpanel_series_a.csv").read_text())
+    before = sorted(tmp_path.iterdir())
+    start = time.perf_counter()
+    status = main(["run", str(scene), f"--set=mesh.h={h}", "--set=mesh.check_eps=false"])
+    elapsed = time.perf_counter() - start
+    captured = capsys.readouterr()
+    line = captured.err.strip()
+    assert status == 2 and "\n" not in line, captured.err
+    assert line.startswith(f"thinfilm: error: {scene}: mesh.h = {h!r}: the run needs about") and "nodes" in line
+    assert "use a larger h" in line
+    assert sorted(tmp_path.iterdir()) == before and elapsed < 10.0
+
+
+@pytest.mark.parametrize("name, dim, h, h_coarse", [
+    ("lpanel", 2, 5.0, 25.0), ("lpanel", 3, 20.0, 50.0), ("three_point_bending", 2, 0.1, 0.5),
+    ("nooru_mohamed", 2, 4.0, 20.0), ("brokenshire", 3, 20.0, 40.0), ("double_torsion", 3, 1.0, 2.0)])
+def test_the_node_estimate_before_meshing_is_near_the_mesh(name, dim, h, h_coarse):
+    # at these coarse sizes the graded transitions weigh most: within a factor 2.5 (at the
+    # cases' own sizes within 25%, docs/scenes.md#sizes)
+    from fem3d import specimens
+
+    record = specimens.get(name)
+    ratio = record.nodes_estimate(dim, h, h_coarse, {}) / record.make(dim, h, h_coarse, {}).n_nodes
+    assert 0.4 < ratio < 1.5, ratio

@@ -25,7 +25,7 @@ from fem3d.elasticity import Elasticity, lame_parameters
 from fem3d.mesh import Mesh
 from tests.fem3d.checks import fitted_order, force_and_moment, rel_diff
 from tests.fem3d.manufactured import PH2, PH3, W2, W3, body_force, exact_fields
-from tests.fem3d.meshes import small_mesh, tet_mesh, to_skfem, tri_mesh
+from tests.fem3d.meshes import boundary_nodes, node_dofs, small_mesh, tet_mesh, to_skfem, tri_mesh
 from tests.fem3d.solves import solve
 
 E, NU = 3.0, 0.3
@@ -34,18 +34,6 @@ MODEL_IDS = ["plane-stress", "plane-strain", "3d"]
 
 
 # --- meshes ------------------------------------------------------------------------------------
-
-def boundary_nodes(mesh):
-    """Nodes on the faces of the mesh's bounding box."""
-    lo, hi = mesh.points.min(axis=0), mesh.points.max(axis=0)
-    tol = 1e-12 * float(np.ptp(mesh.points, axis=0).max())
-    return np.flatnonzero(np.any((mesh.points < lo + tol) | (mesh.points > hi - tol), axis=1))
-
-
-def node_dofs(nodes, dim, components=None):
-    comps = range(dim) if components is None else components
-    return np.sort(np.concatenate([np.asarray(nodes) * dim + a for a in comps]))
-
 
 def elasticity(dim, plane, mesh=None, **kw):
     mesh = small_mesh(dim) if mesh is None else mesh

@@ -22,8 +22,11 @@ from fem3d.elements.p1 import P1Space
 from fem3d.elements.p2 import P2Space
 from fem3d.elements.quadrature import collapsed_gauss
 from fem3d.elements.space import Space
-from tests.fem3d.test_elasticity import E, NU, boundary_nodes, node_dofs, small_mesh, solve
+from tests.fem3d.meshes import boundary_nodes, node_dofs, small_mesh
+from tests.fem3d.solves import solve
 from tests.helpers import load_case
+
+E, NU = 3.0, 0.3
 
 
 class P1QSpace(Space):

@@ -23,6 +23,7 @@ kind = "lpanel"
 [mesh]
 h = 5.0
 h_coarse = 25.0
+check_eps = false   # eps = h / 10: a scene about reading, not resolution
 [load]
 t_max = 0.1
 steps = 4
