@@ -148,6 +148,11 @@ def crack_lengths(results):
     return length, jump
 
 
+def units_of(parameters):
+    """``(length, force)``: the names of a run's units (``[units]``), or ``("", "")``."""
+    return str(parameters.get("length_unit", "")), str(parameters.get("force_unit", ""))
+
+
 def crack_events(t, length, jump):
     """The steps where the crack length grows by more than ``jump`` at once.
 
@@ -172,6 +177,16 @@ class FemKind(EvolutionKind):
     required_datasets = ("mesh/points", "fields/u", "fields/alpha")
     labels = {"alpha": r"damage $\alpha$", "u": "displacement u", "energy": "energy (scene units)"}
     length_unit = ""
+
+    def figure_labels(self, parameters):
+        """The labels in the scene's ``[units]`` if it names them."""
+        length, force = units_of(parameters)
+        if not length:
+            return self.labels
+        return {**self.labels, "u": f"displacement u ({length})", "energy": f"energy ({force} {length})"}
+
+    def figure_length_unit(self, parameters):
+        return units_of(parameters)[0]
 
     def parse(self, source, data, text):
         return fem_scene.parse(source, data, text)
@@ -229,7 +244,8 @@ class FemKind(EvolutionKind):
                 "h_coarse": scene.mesh.h_coarse, "t_max": scene.load.t_max, "steps": scene.load.steps,
                 "loaded": ",".join(scene.load.loaded), "proportional": scene.load.proportional,
                 **({"snapshots": scene.snapshots} if scene.snapshots else {}),
-                **({"reference": scene.reference} if scene.reference else {})}
+                **({"reference": scene.reference} if scene.reference else {}),
+                **({"length_unit": scene.units[0], "force_unit": scene.units[1]} if scene.units else {})}
 
     def warnings(self, scene):
         m = scene.model
@@ -278,8 +294,11 @@ class FemKind(EvolutionKind):
 
     def title(self, parameters):
         p = parameters
-        return (f"AT{p.get('at', '?')}, E = {p.get('E', float('nan')):g}, Gc = {p.get('Gc', float('nan')):g},"
-                f" $\\epsilon$ = {p.get('eps', float('nan')):g}")
+        length, force = units_of(p)
+        stress, toughness = (f" {force}/{length}$^2$", f" {force}/{length}") if length else ("", "")
+        return (f"AT{p.get('at', '?')}, E = {p.get('E', float('nan')):g}{stress},"
+                f" Gc = {p.get('Gc', float('nan')):g}{toughness}, $\\epsilon$ = {p.get('eps', float('nan')):g}"
+                f"{' ' + length if length else ''}")
 
 
 KIND = FemKind()

@@ -31,10 +31,24 @@ __all__ = ["force_displacement_figure", "crack_length_figure", "crack_surface_fi
 BROKEN = 0.9
 
 
+def units(res):
+    """``(length, force)``: the run's unit names from its scene's ``[units]``, or ``("", "")``."""
+    p = res.parameters
+    return str(p.get("length_unit", "")), str(p.get("force_unit", ""))
+
+
+def with_unit(label, unit):
+    """``"label (unit)"``, or the label alone without a unit."""
+    return f"{label} ({unit})" if unit else label
+
+
 def force_displacement_figure(res, outdir, reference=None, events=()):
     """``force_displacement.png`` (:func:`thinfilm.plots.force_displacement_figure`, shared with
     the film); ``res`` an open results file with ``force`` and ``displacement``."""
-    return _force_displacement_figure(res, outdir, events=events, reference=reference)
+    length, force = units(res)
+    return _force_displacement_figure(res, outdir, events=events, reference=reference,
+                                      xlabel=with_unit("prescribed displacement", length),
+                                      ylabel=with_unit("reaction force", force))
 
 
 def crack_length_figure(res, outdir, length, dim):
@@ -44,8 +58,10 @@ def crack_length_figure(res, outdir, length, dim):
     ax.plot(res.t, length, "o-", ms=2.5, color="tab:red")
     ax.set_xlim(0.0, max(res.t_max, res.t[-1]))
     ax.set_ylim(bottom=0.0)
+    length, _ = units(res)
     ax.set_xlabel("load t")
-    ax.set_ylabel("crack length S/(Gc T)" if dim == 2 else "crack area S/Gc")
+    ax.set_ylabel(with_unit("crack length S/(Gc T)", length) if dim == 2
+                  else with_unit("crack area S/Gc", f"{length}^2" if length else ""))
     ax.set_title(f"crack {'length' if dim == 2 else 'area'} from the surface energy{progress_note(res)}",
                  fontsize=10)
     save_figure(fig, path)
@@ -67,7 +83,7 @@ def release_rate_figure(res, outdir, G, a):
     gap = np.flatnonzero(np.diff(x) > 4.0 * res.parameters["eps"]) + 1
     x, y = np.insert(x, gap, np.nan), np.insert(y, gap, np.nan)
     ax.plot(x, y, "o-", ms=3, color="tab:blue")
-    ax.set_xlabel("crack length a = S/(Gc T)")
+    ax.set_xlabel(with_unit("crack length a = S/(Gc T)", units(res)[0]))
     ax.set_ylabel("energy release rate G / Gc")
     ax.set_ylim(0.0, max(1.5, float(np.nanmin([np.nanmax(G[moved]) / res.parameters["Gc"], 3.0])) * 1.05))
     ax.set_title(f"G = (2 (B/t) dt - dB) / dA over growths of at least h{progress_note(res)}", fontsize=10)
@@ -95,8 +111,8 @@ def crack_surface_figure(res, outdir):
         ax.set_ylim(low[j], high[j])
         ax.set_aspect("equal")
         ax.set_title(f"{view}, colour: {'xyz'[other]}", fontsize=9)
-        ax.set_xlabel("xyz"[i])
-        ax.set_ylabel("xyz"[j])
+        ax.set_xlabel(with_unit("xyz"[i], units(res)[0]))
+        ax.set_ylabel(with_unit("xyz"[j], units(res)[0]))
     fig.colorbar(image, ax=axes, shrink=0.8, label="depth along the view")
     fig.suptitle(f"crack surface (alpha >= {BROKEN}) at t = {res.t[res.n - 1]:.4g}: {int(broken.sum())} nodes"
                  f"{progress_note(res)}", fontsize=10)
@@ -171,8 +187,8 @@ def alpha_slices_figure(res, outdir, count=3):
         ax.set_ylim(low[1], high[1])
         ax.set_aspect("equal")
         ax.set_title(f"z = {level:.4g}", fontsize=9)
-        ax.set_xlabel("x")
-        ax.set_ylabel("y")
+        ax.set_xlabel(with_unit("x", units(res)[0]))
+        ax.set_ylabel(with_unit("y", units(res)[0]))
     fig.colorbar(collection, ax=axes[0].tolist(), shrink=0.8, label=r"damage $\alpha$")
     fig.suptitle(f"damage on sections at t = {res.t[res.n - 1]:.4g}{progress_note(res)}", fontsize=10)
     save_figure(fig, path)
@@ -226,7 +242,7 @@ def crack_sections_figure(res, path, levels, xlim=None, ylim=None, step=None, wi
     image = ax.scatter(d.points[broken, 0][order], d.points[broken, 1][order], c=d.points[broken, 2][order], s=2,
                        cmap="viridis")
     ax.set_title(f"alpha >= {BROKEN} from above", fontsize=9)
-    fig.colorbar(image, ax=ax, shrink=0.7, location="bottom", label="z")
+    fig.colorbar(image, ax=ax, shrink=0.7, location="bottom", label=with_unit("z", units(res)[0]))
     for ax, (level, angle, _, _) in zip(axes[0][1:], trace_angles(d.points, alpha, levels, width)):
         polygons, means = slice_polygons(d.points, d.cells, alpha, 2, level)
         keep = [i for i, q in enumerate(polygons) if xlim[0] <= q[0, 0] <= xlim[1] and ylim[0] <= q[0, 1] <= ylim[1]]
@@ -247,8 +263,8 @@ def crack_sections_figure(res, path, levels, xlim=None, ylim=None, step=None, wi
         ax.set_xlim(*xlim)
         ax.set_ylim(*ylim)
         ax.set_aspect("equal")
-        ax.set_xlabel("x")
-        ax.set_ylabel("y")
+        ax.set_xlabel(with_unit("x", units(res)[0]))
+        ax.set_ylabel(with_unit("y", units(res)[0]))
     fig.colorbar(collection, ax=axes[0][1:].tolist(), shrink=0.7, location="bottom", label=r"damage $\alpha$")
     fig.suptitle(f"crack at t = {res.t[k]:.4g}: from above and on sections z = const{progress_note(res)}",
                  fontsize=10)

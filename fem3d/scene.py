@@ -220,19 +220,22 @@ class FemScene:
     #: with two columns, displacement and force, in the scene's units).
     reference: str | None = None
     overrides: str | None = None
+    #: ``[units]``: the names of the scene's length and force units (``("mm", "N")``), which
+    #: the figures' axes carry; None: the scene does not say.
+    units: tuple | None = None
 
 
 def _numbers(table, key, count=None, *, required=False):
     """A list of finite numbers (``count`` of them if given), or None if absent and optional."""
     if not table.has(key):
         if required:
-            table._required(key)
+            table.required(key)
         return None
     value = table.data[key]
     ok = (isinstance(value, list) and (count is None or len(value) == count)
           and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
     if not ok:
-        table._fail(key, value, f"must be a list of {count or 'some'} finite numbers")
+        table.fail(key, value, f"must be a list of {count or 'some'} finite numbers")
     return tuple(float(v) for v in value)
 
 
@@ -242,7 +245,7 @@ def _names(table, key):
         return ()
     value = table.data[key]
     if not (isinstance(value, list) and all(isinstance(v, str) and v for v in value)):
-        table._fail(key, value, "must be a list of group names (strings)")
+        table.fail(key, value, "must be a list of group names (strings)")
     return tuple(value)
 
 
@@ -250,7 +253,7 @@ def _path(table, key):
     """An existing file named relative to the scene file."""
     path = table.file(key, "must be the path of a file")
     if not path.is_file():
-        table._fail(key, table.data[key], "must be the path of a file; there is no such file")
+        table.fail(key, table.data[key], "must be the path of a file; there is no such file")
     return str(path)
 
 
@@ -259,17 +262,17 @@ def _model(source, data):
                                                    "thickness", "undamaged", "buffers", "split", "element"))
     dim = model.integer("dim", minimum=2)
     if dim not in (2, 3):
-        model._fail("dim", dim, "must be 2 or 3")
+        model.fail("dim", dim, "must be 2 or 3")
     nu = model.number("nu")
     if not -1.0 < nu < 0.5:
-        model._fail("nu", nu, "must be in (-1, 0.5)")
+        model.fail("nu", nu, "must be in (-1, 0.5)")
     at = model.integer("at", minimum=1, default=1)
     if at not in (1, 2):
-        model._fail("at", at, "must be 1 (AT1) or 2 (AT2)")
+        model.fail("at", at, "must be 1 (AT1) or 2 (AT2)")
     if dim == 3:
         for key in ("plane", "thickness"):
             if model.has(key):
-                model._fail(key, model.data[key], "is for 2D runs only (model.dim = 2)")
+                model.fail(key, model.data[key], "is for 2D runs only (model.dim = 2)")
         plane, thickness = "none", 1.0
     else:
         plane = model.choice("plane", ("stress", "strain"), default="stress")
@@ -300,10 +303,10 @@ def _geometry(source, data, dim):
     keys = [key.name for key in record.keys]
     for key in geometry.data:
         if key != "kind" and key not in keys:
-            geometry._fail(key, geometry.data[key], f'is not a key of geometry.kind = "{kind}" (its keys:'
+            geometry.fail(key, geometry.data[key], f'is not a key of geometry.kind = "{kind}" (its keys:'
                            f' {", ".join(keys)})')
     if dim not in record.dims:
-        geometry._fail("kind", kind, f"is a {record.dims[0]}D geometry (model.dim = {record.dims[0]})")
+        geometry.fail("kind", kind, f"is a {record.dims[0]}D geometry (model.dim = {record.dims[0]})")
     options, file = {}, None
     for key in record.keys:
         if key.file:
@@ -312,7 +315,7 @@ def _geometry(source, data, dim):
             options[key.argument] = _key_value(geometry, key)
     for key in record.keys:
         if geometry.has(key.name) and dim not in key.dims:
-            geometry._fail(key.name, options[key.argument], key.note or f"is for {key.dims[0]}D runs only")
+            geometry.fail(key.name, options[key.argument], key.note or f"is for {key.dims[0]}D runs only")
     return Geometry(kind, tuple(sorted(options.items())), file)
 
 
@@ -341,7 +344,7 @@ def _load_parts(source, name, load, dim):
         for group in table.data:
             sub = Table(source, f"{name}.displacement.{group}", table.data[group], COMPONENTS[:dim])
             if not sub.data:
-                table._fail(group, table.data[group], f"must give at least one component ({', '.join(COMPONENTS[:dim])})")
+                table.fail(group, table.data[group], f"must give at least one component ({', '.join(COMPONENTS[:dim])})")
             for c, component in enumerate(COMPONENTS[:dim]):
                 if sub.has(component):
                     displacement.append((group, c, sub.number(component)))
@@ -363,10 +366,10 @@ def _loading(source, data, dim):
         values = _numbers(load, "t")
         ok = len(values) >= 2 and values[0] == 0.0 and all(b > a for a, b in zip(values, values[1:]))
         if not ok:
-            load._fail("t", list(values), "must be a list of at least two loads, increasing from 0")
+            load.fail("t", list(values), "must be a list of at least two loads, increasing from 0")
         for key in ("t_max", "steps"):
             if load.has(key):
-                load._fail(key, load.data[key], "is not allowed with load.t (an explicit list of loads)")
+                load.fail(key, load.data[key], "is not allowed with load.t (an explicit list of loads)")
         t_max, steps = values[-1], len(values) - 1
     else:
         t_max, steps = load.number("t_max", minimum=0), load.integer("steps", minimum=2)
@@ -390,7 +393,7 @@ def _loading(source, data, dim):
 
 def parse(source, data, text):
     """Validate a ``kind = "fem"`` scene (module docstring); returns :class:`FemScene`."""
-    require_tables(source, data, ("model", "geometry", "load"), ("mesh", "solver", "output"))
+    require_tables(source, data, ("model", "geometry", "load"), ("mesh", "units", "solver", "output"))
     model = _model(source, data)
     geometry = _geometry(source, data, model.dim)
     mesh, extent = _sizes(source, data, model, geometry)
@@ -409,7 +412,22 @@ def parse(source, data, text):
         output = {k: v for k, v in output.items() if k != "reference"}
     snapshots = read_snapshots(source, output, loading.t_max)
     return FemScene(model=model, geometry=geometry, mesh=mesh, load=loading, solver=solver, text=text,
-                    source=str(source), snapshots=snapshots, reference=reference)
+                    source=str(source), snapshots=snapshots, reference=reference, units=_units(source, data))
+
+
+def _units(source, data):
+    """``[units] length = "mm", force = "N"``: the words of the scene's consistent units (the
+    numbers are not converted); None if the table is absent."""
+    if "units" not in data:
+        return None
+    table = Table(source, "units", data["units"], ("length", "force"))
+    names = []
+    for key in ("length", "force"):
+        value = table.required(key)
+        if not isinstance(value, str) or not value.strip() or len(value) > 20:
+            table.fail(key, value, 'must be the name of a unit, e.g. "mm" or "N" (1-20 characters)')
+        names.append(value.strip())
+    return tuple(names)
 
 
 def _mesh_file(source, model, geometry):
@@ -452,22 +470,22 @@ def _sizes(source, data, model, geometry):
         if table.has("h"):
             h = table.number("h", minimum=0)
             if not measured / H_FACTOR <= h <= measured * H_FACTOR:
-                table._fail("h", h, f"must be within a factor {H_FACTOR:g} of the mesh file's element size where it is"
+                table.fail("h", h, f"must be within a factor {H_FACTOR:g} of the mesh file's element size where it is"
                             f" finest, {measured:.4g} (the {FINE_PERCENTILE:g}th percentile of its cells' longest"
                             " edges), or left out to take that")
         sizes = MeshSizes(h=measured, h_coarse=float(cell_sizes.max()), measured=True)
     else:
         if not table.has("h"):
-            table._required("h")
+            table.required("h")
         h = table.number("h", minimum=0)
         sizes = MeshSizes(h=h, h_coarse=table.number("h_coarse", minimum=0, default=h))
         if sizes.h_coarse < sizes.h:
-            table._fail("h_coarse", sizes.h_coarse, f"must be >= mesh.h = {h:g}")
+            table.fail("h_coarse", sizes.h_coarse, f"must be >= mesh.h = {h:g}")
         extent = record.extent_of(model.dim, geometry.options)   # None: not known before meshing
     side = math.inf if extent is None else extent.size
     if sizes.h > 0.5 * side:
         key, value = ("h", sizes.h) if table.has("h") else ("h_coarse", sizes.h)
-        table._fail(key, value, f"must be at most half the specimen's largest side, {side:.4g}: the mesh would have"
+        table.fail(key, value, f"must be at most half the specimen's largest side, {side:.4g}: the mesh would have"
                     " fewer than two elements across it")
     if check_eps:
         if model.eps > EPS_PER_SIZE_MAX * side:

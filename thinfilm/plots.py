@@ -153,13 +153,13 @@ def _model_title(res):
 
 def _label(res, field):
     """The axis or colour-bar label of ``field`` (the kind's words and units)."""
-    return kinds.get(res.kind).labels[field]
+    return kinds.get(res.kind).figure_labels(res.parameters)[field]
 
 
 def _axis(res, name):
     """``"x (L)"``: a coordinate axis in the kind's length unit (``"x"`` if it has none: the
     scene's own units), with the unit's SI value if the run has one (``"x (L = 1.88 µm)"``)."""
-    unit = kinds.get(res.kind).length_unit
+    unit = kinds.get(res.kind).figure_length_unit(res.parameters)
     physical = kinds.get(res.kind).physical(res)
     if unit and physical:
         factor, prefix = si_prefix(physical["length"])

@@ -228,6 +228,16 @@ class EvolutionKind:
         """The model in a few words, for figure titles."""
         return self.name
 
+    def figure_labels(self, parameters) -> dict:
+        """The figures' labels for a run of these ``/parameters``: :attr:`labels` by
+        default; a kind whose units are the scene's words them per run."""
+        return self.labels
+
+    def figure_length_unit(self, parameters) -> str:
+        """The unit of the field figures' axes for a run of these ``/parameters``:
+        :attr:`length_unit` by default."""
+        return self.length_unit
+
     def physical(self, results) -> dict | None:
         """The SI value of the run's units, if it has non-dimensional ones and a material
         (:func:`thinfilm.plate.units.physical_scales`: ``length``, ``energy``, ``force`` and

@@ -112,10 +112,18 @@ class Table:
     def has(self, key):
         return key in self.data
 
-    def _fail(self, key, value, allowed):
+    def fail(self, key, value, allowed):
+        """Refuse ``key``'s ``value``, saying what is ``allowed``.
+
+        Raises
+        ------
+        SceneError
+            Always: ``<key> = <value>: <allowed>``.
+        """
         raise SceneError(self.source, self.path(key), f"= {show(value)}: {allowed}")
 
-    def _required(self, key):
+    def required(self, key):
+        """The value of ``key``, which must be given (:class:`SceneError` otherwise)."""
         if key not in self.data:
             raise SceneError(self.source, self.path(key), "missing (required)")
         return self.data[key]
@@ -124,25 +132,25 @@ class Table:
         """A finite real number (TOML float or integer), optionally bounded below."""
         if default is not None and key not in self.data:
             return float(default)
-        value = self._required(key)
+        value = self.required(key)
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            self._fail(key, value, "must be a finite number")
+            self.fail(key, value, "must be a finite number")
         if minimum is not None:
             if exclusive and not value > minimum:
-                self._fail(key, value, "must be a positive number" if minimum == 0 else f"must be > {minimum}")
+                self.fail(key, value, "must be a positive number" if minimum == 0 else f"must be > {minimum}")
             if not exclusive and not value >= minimum:
-                self._fail(key, value, f"must be >= {minimum}")
+                self.fail(key, value, f"must be >= {minimum}")
         return float(value)
 
     def integer(self, key, *, minimum=None, default=None):
         """An integer, optionally bounded below (inclusive)."""
         if default is not None and key not in self.data:
             return int(default)
-        value = self._required(key)
+        value = self.required(key)
         if isinstance(value, bool) or not isinstance(value, int):
-            self._fail(key, value, "must be an integer")
+            self.fail(key, value, "must be an integer")
         if minimum is not None and value < minimum:
-            self._fail(key, value, f"must be an integer >= {minimum}")
+            self.fail(key, value, f"must be an integer >= {minimum}")
         return int(value)
 
     def boolean(self, key, *, default):
@@ -151,7 +159,7 @@ class Table:
             return default
         value = self.data[key]
         if not isinstance(value, bool):
-            self._fail(key, value, "must be true or false")
+            self.fail(key, value, "must be true or false")
         return value
 
     def file(self, key, allowed):
@@ -161,7 +169,7 @@ class Table:
         and what it holds are the caller's checks."""
         raw = self.data.get(key)
         if not isinstance(raw, str) or not raw:
-            self._fail(key, raw if raw is not None else "missing", allowed)
+            self.fail(key, raw if raw is not None else "missing", allowed)
         path = Path(raw)
         if not path.is_absolute() and self.source != "<string>":
             path = Path(self.source).parent / path
@@ -171,20 +179,20 @@ class Table:
         """A pair ``[a, b]`` of finite numbers with ``a < b``; None if absent and optional."""
         if key not in self.data and not required:
             return None
-        value = self._required(key)
+        value = self.required(key)
         ok = (isinstance(value, list) and len(value) == 2
               and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
         if not ok or not value[0] < value[1]:
-            self._fail(key, value, "must be an interval [a, b] of two finite numbers with a < b")
+            self.fail(key, value, "must be an interval [a, b] of two finite numbers with a < b")
         return float(value[0]), float(value[1])
 
     def choice(self, key, choices, *, default=None):
         """A string among ``choices``."""
         if default is not None and key not in self.data:
             return default
-        value = self._required(key)
+        value = self.required(key)
         if not isinstance(value, str) or value not in choices:
-            self._fail(key, value, "must be one of " + ", ".join(f'"{c}"' for c in choices))
+            self.fail(key, value, "must be one of " + ", ".join(f'"{c}"' for c in choices))
         return value
 
 
@@ -234,7 +242,7 @@ def _option_value(table, key, f):
     rule = f.metadata["rule"]
     value = table.data[key]
     if not rule.accepts_type(value):
-        table._fail(key, value, rule.type_phrase())
+        table.fail(key, value, rule.type_phrase())
     return float(value) if rule.type == "number" else value
 
 
@@ -278,13 +286,13 @@ def read_solver(source, data, *, proportional, load="the load", extra=()):
         try:
             parts[group] = cls(**groups[group])
         except OptionError as err:
-            table._fail(by_field[(group, err.name)], err.value, err.allowed)
+            table.fail(by_field[(group, err.name)], err.value, err.allowed)
     try:
         settings = SolverSettings(**parts, **own)
     except OptionError as err:
-        table._fail(by_field[(None, err.name)], err.value, err.allowed)
+        table.fail(by_field[(None, err.name)], err.value, err.allowed)
     if settings.backtrack.kind != "none" and not proportional:
-        table._fail("backtrack", settings.backtrack.kind, f"backtracking needs a load proportional to t; {load}"
+        table.fail("backtrack", settings.backtrack.kind, f"backtracking needs a load proportional to t; {load}"
                     ' is not (use "none")')
     return settings, table
 
@@ -299,7 +307,7 @@ def read_snapshots(source, data, t_max):
           and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and 0 <= v <= t_max
                   for v in value))
     if not ok:
-        output._fail("snapshots", value, f"must be a list of 1 to 12 loads in [0, load.t_max = {t_max:g}]")
+        output.fail("snapshots", value, f"must be a list of 1 to 12 loads in [0, load.t_max = {t_max:g}]")
     return tuple(float(v) for v in value)
 
 

@@ -107,12 +107,12 @@ def lam_or_winkler(model):
     if has_lam:
         lam = model.number("lam", minimum=0)
         if not LAM_MIN <= lam <= LAM_MAX:
-            model._fail("lam", model.data["lam"], f"must be in [{LAM_MIN:.2g}, {LAM_MAX:.2g}], so that winkler ="
+            model.fail("lam", model.data["lam"], f"must be in [{LAM_MIN:.2g}, {LAM_MAX:.2g}], so that winkler ="
                         " 4 lam^4 is a finite positive number")
         return lam
     winkler = model.number("winkler", minimum=0)
     if winkler < sys.float_info.min:
-        model._fail("winkler", model.data["winkler"], f"must be a positive number >= {sys.float_info.min:.2g}")
+        model.fail("winkler", model.data["winkler"], f"must be a positive number >= {sys.float_info.min:.2g}")
     return float(lam_from_winkler(winkler))
 
 

@@ -165,24 +165,24 @@ def parse(source, data, text):
         ok = (isinstance(cells, list) and len(cells) == 2
               and all(isinstance(c, int) and not isinstance(c, bool) and c >= 2 for c in cells))
         if not ok:
-            domain._fail("cells", cells if cells is not None else "missing",
+            domain.fail("cells", cells if cells is not None else "missing",
                          "must be [nx, ny], two integers >= 2, for a 2D domain (y given)")
         cells = tuple(cells)
     symmetry = domain.choice("symmetry", tuple(GROUPS), default="none")
     if dim == 1 and symmetry in GROUPS_2D:
-        domain._fail("symmetry", symmetry, 'must be "none" or "mirror_x" for a 1D domain')
+        domain.fail("symmetry", symmetry, 'must be "none" or "mirror_x" for a 1D domain')
     if symmetry in GROUPS_SQUARE and not (cells[0] == cells[1] and math.isclose(x[1] - x[0], y[1] - y[0], rel_tol=1e-12)):
-        domain._fail("symmetry", symmetry, f"needs a square grid (x and y intervals of the same length and"
+        domain.fail("symmetry", symmetry, f"needs a square grid (x and y intervals of the same length and"
                                            f" cells = [n, n]), got cells = [{cells[0]}, {cells[1]}]")
     dom = Domain(x=x, y=y, cells=cells, symmetry=symmetry)
 
     at = model.integer("at", minimum=1, default=1)
     if at not in (1, 2):
-        model._fail("at", at, "must be 1 (AT1) or 2 (AT2)")
+        model.fail("at", at, "must be 1 (AT1) or 2 (AT2)")
     material = _parse_material(source, data, model) if top.has("material") else None
     nu = material.nu if material else model.number("nu", default=0.3)
     if not -1.0 < nu < 0.5:
-        model._fail("nu", nu, "must be in (-1, 0.5)")
+        model.fail("nu", nu, "must be in (-1, 0.5)")
     if model.has("eta") == model.has("eta_dx"):
         both = "both are given" if model.has("eta") else "neither is given"
         raise SceneError(source, "model.eta", f"give exactly one of model.eta and model.eta_dx ({both})")
@@ -191,8 +191,8 @@ def parse(source, data, text):
     if not 0.0 < eta <= size:
         # (a damage band wider than the film; also the default toughness_noise_length)
         if model.has("eta"):
-            model._fail("eta", model.data["eta"], f"must be a positive length up to the domain's size {size:g}")
-        model._fail("eta_dx", model.data["eta_dx"], f"gives eta = eta_dx * dx = {eta:g} (dx = {dom.dx:g}); must give"
+            model.fail("eta", model.data["eta"], f"must be a positive length up to the domain's size {size:g}")
+        model.fail("eta_dx", model.data["eta_dx"], f"gives eta = eta_dx * dx = {eta:g} (dx = {dom.dx:g}); must give"
                     f" a positive length up to the domain's size {size:g}")
     k_res = model.number("k_res", minimum=0, default=1e-6)
     if material:
@@ -201,13 +201,13 @@ def parse(source, data, text):
         lam, toughness = lam_or_winkler(model), model.number("toughness", minimum=0)
     noise = model.number("toughness_noise", minimum=0, exclusive=False, default=0.0)
     if noise > 2.0:
-        model._fail("toughness_noise", noise, "must be in [0, 2] (the scatter of log G; 2 already puts a factor"
+        model.fail("toughness_noise", noise, "must be in [0, 2] (the scatter of log G; 2 already puts a factor"
                     " 2500 between the 2.5% and 97.5% quantiles of G)")
     noise_length = model.number("toughness_noise_length", minimum=0, exclusive=False, default=eta)
     if noise_length > size:
         # (longer correlations make a field that is nearly uniform over the film, and a
         # smoothing kernel larger than the grid)
-        model._fail("toughness_noise_length", noise_length, f"must be in [0, {size:g}] (the domain's size)")
+        model.fail("toughness_noise_length", noise_length, f"must be in [0, {size:g}] (the domain's size)")
     noise_seed = model.integer("toughness_noise_seed", minimum=0, default=0)
     params = PlateParameters(at=at, nu=nu, lam=lam, toughness=toughness, eta=eta, k_res=k_res,
                              toughness_noise=noise, toughness_noise_length=noise_length,
@@ -218,7 +218,7 @@ def parse(source, data, text):
     options, solver = read_solver(source, data.get("solver", {}), proportional=plate_load.proportional,
                                   load=f'load.kind = "{plate_load.kind}"', extra=("coarse",))
     if options.stability.enabled and dom.symmetry != "none":
-        solver._fail("stability", True, f'follows modes that break the symmetry; it needs domain.symmetry ='
+        solver.fail("stability", True, f'follows modes that break the symmetry; it needs domain.symmetry ='
                      f' "none" (not "{dom.symmetry}")')
     coarse = _check_coarse(solver, params, plate_load, dim) if solver.has("coarse") else None
     snapshots = read_snapshots(source, data.get("output", {}), plate_load.t_max)
@@ -231,7 +231,7 @@ def _check_coarse(solver, params, load, dim):
     path = solver.file("coarse", "must be the path of the results.h5 of a coarser run of the same scene")
     raw = solver.data["coarse"]
     if not path.exists():
-        solver._fail("coarse", raw, "must be the results.h5 of a coarser run of the same scene; there is no such"
+        solver.fail("coarse", raw, "must be the results.h5 of a coarser run of the same scene; there is no such"
                      " file (run that scene first)")
     import h5py
 
@@ -239,10 +239,10 @@ def _check_coarse(solver, params, load, dim):
         with h5py.File(path, "r", locking=False) as f:
             kind, p, grid_dim = f.attrs.get("kind"), dict(f["parameters"].attrs), int(f["grid"].attrs["dim"])
     except (OSError, KeyError) as err:
-        solver._fail("coarse", raw, f"must be the results.h5 of a plate run; it cannot be read as one"
+        solver.fail("coarse", raw, f"must be the results.h5 of a plate run; it cannot be read as one"
                      f" ({err.__class__.__name__})")
     if kind != "plate" or grid_dim != dim:
-        solver._fail("coarse", raw, f"must be the results of a {dim}D plate run (it is a {grid_dim}D {kind} run)")
+        solver.fail("coarse", raw, f"must be the results of a {dim}D plate run (it is a {grid_dim}D {kind} run)")
     ours = {"at": params.at, "nu": params.nu, "lam": params.lam, "toughness": params.toughness, "eta": params.eta,
             "load": load.kind, **({"radius": load.radius} if load.radius else {})}
     for key, value in ours.items():
@@ -250,7 +250,7 @@ def _check_coarse(solver, params, load, dim):
         same = (theirs == value if isinstance(value, str)
                 else theirs is not None and math.isclose(float(theirs), value, rel_tol=1e-9))
         if not same:
-            solver._fail("coarse", raw, f"must be a run of the same model and load; it has {key} = {theirs},"
+            solver.fail("coarse", raw, f"must be a run of the same model and load; it has {key} = {theirs},"
                          f" this scene {value}")
     return str(path)
 
@@ -275,11 +275,11 @@ def _parse_material(source, data, model):
         K_IC = table.number("K_IC", minimum=0)
         Gc = _derived(lambda: toughness_from_KIC(K_IC, E))
         if not 0.0 < Gc < math.inf:
-            table._fail("K_IC", table.data["K_IC"], f"gives Gc = K_IC^2 / E = {Gc:g} with E = {E:g}; must give a"
+            table.fail("K_IC", table.data["K_IC"], f"gives Gc = K_IC^2 / E = {Gc:g} with E = {E:g}; must give a"
                         " finite positive Gc")
     nu = table.number("nu", default=0.3)
     if not -1.0 < nu < 0.5:
-        table._fail("nu", nu, "must be in (-1, 0.5)")
+        table.fail("nu", nu, "must be in (-1, 0.5)")
     material = Material(E=E, nu=nu, h=table.number("h", minimum=0), Gc=Gc,
                         bond_stiffness=table.number("bond_stiffness", minimum=0), L=table.number("L", minimum=0))
     # (2.13): winkler = 12 K_b (1 - nu^2) L^4 / (E h^3), toughness = 12 Gc (1 - nu^2) L / (E h^2)
@@ -311,12 +311,12 @@ def _parse_load(source, load, dom):
     own = {"indenter": ("radius",), "field": ("file", "name")}.get(kind, ())
     for key in ("radius", "file", "name"):
         if load.has(key) and key not in own:
-            load._fail(key, load.data[key], f'is not used by load.kind = "{kind}"')
+            load.fail(key, load.data[key], f'is not used by load.kind = "{kind}"')
     radius = field = file = None
     if kind == "indenter":
         radius = load.number("radius", minimum=0)
         if t_max > 1.0:
-            load._fail("t_max", t_max, "must be <= 1 for the indenter (t = 1: pressed to its radius)")
+            load.fail("t_max", t_max, "must be <= 1 for the indenter (t = 1: pressed to its radius)")
     if kind == "cantilever" and dom.x[0] != 0.0:
         raise SceneError(source, "domain.x", f"= {show(list(dom.x))}: the cantilever is clamped at x = 0;"
                          " the domain must start there")
@@ -329,15 +329,15 @@ def _read_field(load, dom):
     """The substrate displacement of a ``"field"`` load, from ``.npz`` or HDF5, checked."""
     name = load.data.get("name", "w")
     if not isinstance(name, str):
-        load._fail("name", name, "must be a string (the array's name in the file)")
+        load.fail("name", name, "must be a string (the array's name in the file)")
     path = load.file("file", "must be the path of an .npz or HDF5 file")
     raw = load.data["file"]
     if path.suffix not in (".npz", ".h5", ".hdf5"):
-        load._fail("file", raw, "must end in .npz, .h5 or .hdf5")
+        load.fail("file", raw, "must end in .npz, .h5 or .hdf5")
     if not path.is_file():
-        load._fail("file", raw, f"no such file ({path})")
+        load.fail("file", raw, f"no such file ({path})")
     if path.suffix == ".npz" and not zipfile.is_zipfile(path):
-        load._fail("file", raw, "cannot be read: not an .npz archive (numpy.savez writes them)")
+        load.fail("file", raw, "cannot be read: not an .npz archive (numpy.savez writes them)")
     # What cannot be read is the file's fault, an array it does not hold the name's: the two
     # are told apart outside the try, so that one message never wraps the other.
     missing = None
@@ -357,15 +357,15 @@ def _read_field(load, dom):
                 else:
                     missing = f"no dataset of that name in {raw} (it has: {', '.join(f) or 'none'})"
     except (OSError, ValueError, KeyError, zipfile.BadZipFile) as err:
-        load._fail("file", raw, f"cannot be read as {'an .npz' if path.suffix == '.npz' else 'an HDF5'} file"
+        load.fail("file", raw, f"cannot be read as {'an .npz' if path.suffix == '.npz' else 'an HDF5'} file"
                    f" ({err.__class__.__name__}: {err})".replace("\n", " "))
     if missing is not None:
-        load._fail("name", name, missing)
+        load.fail("name", name, missing)
     shape = tuple(c + 1 for c in reversed(dom.cells))  # (ny + 1, nx + 1) or (nx + 1,)
     n_nodes = int(np.prod(shape))
     if w.shape not in (shape, (n_nodes,)):
-        load._fail("file", raw, f"array {name!r} has shape {w.shape}; the grid needs {shape} (nodes, [y, x] order)"
+        load.fail("file", raw, f"array {name!r} has shape {w.shape}; the grid needs {shape} (nodes, [y, x] order)"
                    f" or ({n_nodes},)")
     if not np.all(np.isfinite(w)):
-        load._fail("file", raw, f"array {name!r} has {int(np.sum(~np.isfinite(w)))} non-finite values")
+        load.fail("file", raw, f"array {name!r} has {int(np.sum(~np.isfinite(w)))} non-finite values")
     return str(path), w.reshape(n_nodes)

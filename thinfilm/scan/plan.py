@@ -250,9 +250,9 @@ def _parse(text, source, overrides, check=None, max_runs=None):
     seed_key, seeds = None, [None]
     if "repeat" in data:
         repeat = Table(source, "repeat", data["repeat"], ("key", "count", "first"))
-        seed_key = repeat._required("key")
+        seed_key = repeat.required("key")
         if not isinstance(seed_key, str) or not seed_key:
-            repeat._fail("key", seed_key, 'must name an integer scene key, e.g. "model.toughness_noise_seed"')
+            repeat.fail("key", seed_key, 'must name an integer scene key, e.g. "model.toughness_noise_seed"')
         if seed_key in lists or seed_key in fixed:
             raise ScanError(source, "repeat.key", f"= {show(seed_key)}: is also in [vary] or [set]")
         count = repeat.integer("count", minimum=1)
