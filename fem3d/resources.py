@@ -8,10 +8,9 @@ scene reader has read it). With ``N`` of them, ``d`` the dimension and ``S + 1``
     memory = BASE_BYTES + N NODE_BYTES[d] P + (S + 1) (8 (d + 1) N P + STEP_BYTES)
 
 * ``NODE_BYTES``: the peak per node of a run (mesh, the elasticity and damage operators, the
-  linear solver's factors or AMG hierarchy, the engine's fields), from the peak memory of
-  measured runs (docs/scenes.md#sizes): the 2D L-panel at 107k nodes in 0.88 GB (sparse
-  direct), the 3D L-panel at 70k nodes in 1.6 GB and the Brokenshire prism at 108k in 2.3 GB
-  (AMG);
+  linear solver's factors or AMG hierarchy, the engine's fields), from the peak resident
+  memory of whole runs (docs/scenes.md#sizes): the 2D L-panel at 107k nodes in 0.88 GB
+  (sparse direct), the Brokenshire prism at about 200k nodes in 2.8 GB (AMG);
 * ``P``: the displacement's nodes per vertex, 1 for P1, :data:`P2_NODES` for P2 (the edge
   midpoints: about 3 edges per vertex in 2D, 7 in 3D);
 * ``8 (d + 1) N P`` per step: ``u`` and ``alpha`` of every finished step, which the engine keeps
@@ -28,7 +27,7 @@ from thinfilm.resources import BASE_BYTES, STEP_BYTES, Estimate, Size, count, si
 __all__ = ["NODE_BYTES", "P2_NODES", "nodes", "estimate"]
 
 #: Peak bytes per mesh node of a run, by dimension.
-NODE_BYTES = {2: 5.5e3, 3: 18.5e3}
+NODE_BYTES = {2: 4.0e3, 3: 12.0e3}
 #: Displacement nodes per mesh vertex of P2 (vertices and edge midpoints), by dimension.
 P2_NODES = {2: 4.0, 3: 8.0}
 
