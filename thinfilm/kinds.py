@@ -77,6 +77,11 @@ def register(kind: ModelKind) -> ModelKind:
     return kind
 
 
+def unregister(name: str) -> None:
+    """Forget the kind registered as ``name`` (a built-in one is found again on demand)."""
+    _registered.pop(name, None)
+
+
 def names() -> tuple[str, ...]:
     """The names of every known kind, built-in first."""
     return tuple(BUILTIN) + tuple(name for name in _registered if name not in BUILTIN)

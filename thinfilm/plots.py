@@ -156,7 +156,7 @@ def _label(res, field):
     return kinds.get(res.kind).figure_labels(res.parameters)[field]
 
 
-def _axis(res, name):
+def axis_label(res, name):
     """``"x (L)"``: a coordinate axis in the kind's length unit (``"x"`` if it has none: the
     scene's own units), with the unit's SI value if the run has one (``"x (L = 1.88 µm)"``)."""
     unit = kinds.get(res.kind).figure_length_unit(res.parameters)
@@ -216,7 +216,7 @@ def _abscissa(d):
     return x[order], order
 
 
-def _colour_range(field, values):
+def colour_range(field, values):
     """Shared colour (or y) range of a figure and its colour map: [0, 1] for damage; for u,
     symmetric about 0 with a diverging map where it takes both signs, and from 0 to its
     extreme with the matching half of that map where it keeps one sign (a film pressed down
@@ -299,7 +299,7 @@ def _draw_field(ax, d, values, vmin, vmax, cmap):
     return image
 
 
-def _image_figure(res, steps, field, values, title):
+def image_figure(res, steps, field, values, title):
     """The figure of images of ``values`` (shape (k, ny+1, nx+1)) at ``steps``, one colour
     scale and bar, and the kind's overlays (:meth:`thinfilm.run.EvolutionKind.overlay`).
 
@@ -309,7 +309,7 @@ def _image_figure(res, steps, field, values, title):
     on every panel, labelled only along the left column and under the bottom panel of each
     column, and few enough of them that neighbouring labels never meet.
     """
-    vmin, vmax, cmap = _colour_range(field, values)
+    vmin, vmax, cmap = colour_range(field, values)
     d = res.discretization
     kind = kinds.get(res.kind)
     aspect = _aspect(d)
@@ -332,9 +332,9 @@ def _image_figure(res, steps, field, values, title):
         bottom_of_column = i + ncols >= len(steps)
         ax.tick_params(labelbottom=bottom_of_column, labelleft=col == 0, labelsize=8)
         if bottom_of_column:
-            ax.set_xlabel(_axis(res, "x"))
+            ax.set_xlabel(axis_label(res, "x"))
         if col == 0:
-            ax.set_ylabel(_axis(res, "y"))
+            ax.set_ylabel(axis_label(res, "y"))
     # Shared axes share their locators: at most one tick per ~0.75 in across (a label such as
     # "-0.025" is ~0.4 in wide at this size), and the last one dropped where a neighbour's
     # first label would stand beside it.
@@ -353,8 +353,8 @@ def _image_figure(res, steps, field, values, title):
 
 
 def _draw_images(res, steps, field, values, path, title):
-    """Write :func:`_image_figure` to ``path``."""
-    fig = _image_figure(res, steps, field, values, title)
+    """Write :func:`image_figure` to ``path``."""
+    fig = image_figure(res, steps, field, values, title)
     save_figure(fig, path)
     plt.close(fig)
 
@@ -448,7 +448,7 @@ def force_displacement_figure(res, outdir, events=(), reference=None, xlabel="pr
 
 def _draw_curves(res, steps, field, values, path, title):
     """Curves of ``values`` (shape (k, n_nodes)) against x, coloured by load, on one axes."""
-    vmin, vmax, _ = _colour_range(field, values)
+    vmin, vmax, _ = colour_range(field, values)
     fig, ax = line_figure(6.8, 4.2)
     colors = plt.cm.viridis(np.linspace(0.0, 0.9, len(steps)))
     x, order = _abscissa(res.discretization)
@@ -459,7 +459,7 @@ def _draw_curves(res, steps, field, values, path, title):
     ax.set_ylim(vmin - pad, vmax + pad)
     if field == "u":
         ax.axhline(0.0, color="0.7", lw=0.6, zorder=0)
-    ax.set_xlabel(_axis(res, "x"))
+    ax.set_xlabel(axis_label(res, "x"))
     ax.set_ylabel(_label(res, field))
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8, loc="best")
@@ -567,7 +567,7 @@ def _animate(res, outdir, max_frames=MAX_FRAMES, fps=10):
         _, _, w, h = _panel_layout(1, _aspect(d))
         fig, ax = plt.subplots(figsize=(w + 1.5, h + 1.2), layout="constrained")
         artist = _draw_field(ax, d, res.field("alpha", frames[0]), 0.0, 1.0, ALPHA_CMAP)
-        ax.set_ylabel(_axis(res, "y"))
+        ax.set_ylabel(axis_label(res, "y"))
         fig.colorbar(artist, ax=ax, label=_label(res, "alpha"))
 
         def show(k):
@@ -577,7 +577,7 @@ def _animate(res, outdir, max_frames=MAX_FRAMES, fps=10):
                 artist.set_array(res.field("alpha", k))
     else:
         raise ResultsError(f"{res.path}: alpha.gif is drawn for 1D and 2D runs only")
-    ax.set_xlabel(_axis(res, "x"))
+    ax.set_xlabel(axis_label(res, "x"))
     # Fixed-width numbers, and the layout frozen after the first frame, so that the axes do
     # not jitter from frame to frame as the title changes.
     last = res.n_planned - 1

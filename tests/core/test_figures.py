@@ -3,7 +3,7 @@ scale that fits a one-signed deflection, markers not cut by the frame."""
 
 import numpy as np
 
-from thinfilm.plots import U_CMAP, U_HALF_CMAPS, _colour_range, plt, snapshot_steps, unclip_markers
+from thinfilm.plots import U_CMAP, U_HALF_CMAPS, colour_range, plt, snapshot_steps, unclip_markers
 
 
 def test_default_snapshots_start_at_the_first_step_worth_a_panel():
@@ -15,10 +15,10 @@ def test_default_snapshots_start_at_the_first_step_worth_a_panel():
 
 
 def test_a_one_signed_deflection_gets_half_the_diverging_scale():
-    assert _colour_range("u", np.array([[-2.0, -0.5, 0.0]])) == (-2.0, 0.0, U_HALF_CMAPS[0])
-    assert _colour_range("u", np.array([[0.0, 3.0]])) == (0.0, 3.0, U_HALF_CMAPS[1])
-    assert _colour_range("u", np.array([[-1.0, 3.0]])) == (-3.0, 3.0, U_CMAP)
-    assert _colour_range("u", np.zeros((2, 3))) == (-1.0, 1.0, U_CMAP)
+    assert colour_range("u", np.array([[-2.0, -0.5, 0.0]])) == (-2.0, 0.0, U_HALF_CMAPS[0])
+    assert colour_range("u", np.array([[0.0, 3.0]])) == (0.0, 3.0, U_HALF_CMAPS[1])
+    assert colour_range("u", np.array([[-1.0, 3.0]])) == (-3.0, 3.0, U_CMAP)
+    assert colour_range("u", np.zeros((2, 3))) == (-1.0, 1.0, U_CMAP)
     # the halves are the diverging map's own colours: white at 0 in both
     white = plt.get_cmap(U_CMAP)(0.5)
     np.testing.assert_allclose(U_HALF_CMAPS[0](1.0), white, atol=0.01)

@@ -189,3 +189,63 @@ def test_no_test_module_imports_another():
         found = imported_names(path.read_text(encoding="utf-8"), name, path.name == "__init__.py")
         others = sorted(t for t in found if t.startswith("tests.") and t.split(".")[-1].startswith("test_"))
         assert not others, f"{name} imports {others}: move what they share into a helper module"
+
+
+#: Everything of the project's own whose private names no other module may use.
+OWN = PACKAGES + ("examples", "tests", "benchmarks", "studies")
+
+
+def is_module(dotted):
+    """Whether ``dotted`` names a module or package of the repository."""
+    path = ROOT.joinpath(*dotted.split("."))
+    return path.with_suffix(".py").is_file() or (path / "__init__.py").is_file()
+
+
+def private_uses(source, name, is_package=False):
+    """``(line, what)`` of each private name (``_x``, not dunder) that module ``name`` takes
+    from another of the project's modules: ``from m import _x``, or ``m._x`` where ``m`` is a
+    module it imported (``import a.b as m``, ``from a import m``)."""
+    out, modules_ = [], {}
+    tree = ast.parse(source)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name.split(".")[0] in OWN:
+                    modules_[alias.asname or alias.name.split(".")[0]] = alias.name
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = name.split(".") if is_package else name.split(".")[:-1]
+                anchor = anchor[: len(anchor) - (node.level - 1)]
+                base = ".".join(anchor + ([base] if base else []))
+            if base.split(".")[0] not in OWN or base == name:
+                continue
+            for alias in node.names:
+                if alias.name.startswith("_") and not alias.name.startswith("__"):
+                    out.append((node.lineno, f"from {base} import {alias.name}"))
+                elif is_module(f"{base}.{alias.name}"):  # its attributes are checked below
+                    modules_[alias.asname or alias.name] = f"{base}.{alias.name}"
+    for node in ast.walk(tree):
+        if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and node.value.id in modules_
+                and node.attr.startswith("_") and not node.attr.startswith("__")):
+            out.append((node.lineno, f"{modules_[node.value.id]}.{node.attr}"))
+    return out
+
+
+def test_the_private_name_reader_finds_both_forms():
+    source = ("from fem3d.mesh import _x, y\nimport thinfilm.solvers.kernels as k\nfrom thinfilm.solvers import boxqp\n"
+              "k._prepare()\nboxqp._ARMIJO\nself._z\nfrom os import _exit\n")
+    assert sorted(what for _, what in private_uses(source, "fem3d.kind")) == [
+        "from fem3d.mesh import _x", "thinfilm.solvers.boxqp._ARMIJO", "thinfilm.solvers.kernels._prepare"]
+
+
+def test_no_module_uses_a_private_name_of_another():
+    roots = [ROOT / part for part in OWN if (ROOT / part).is_dir()]
+    files = sorted(path for root in roots for path in root.rglob("*.py"))
+    assert len(files) > 100
+    found = []
+    for path in files:
+        name = module_name(path)
+        found += [f"{path.relative_to(ROOT)}:{line}: {what}"
+                  for line, what in private_uses(path.read_text(encoding="utf-8"), name, path.name == "__init__.py")]
+    assert not found, "\n".join(found)

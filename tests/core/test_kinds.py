@@ -41,10 +41,11 @@ backtrack = "standard"
 
 
 @pytest.fixture
-def bar_kind(monkeypatch):
+def bar_kind():
     """The bar registered as ``kind = "bar"`` for one test."""
-    monkeypatch.setitem(kinds._registered, "bar", BarKind())
-    return kinds.get("bar")
+    kinds.register(BarKind())
+    yield kinds.get("bar")
+    kinds.unregister("bar")
 
 
 @pytest.fixture

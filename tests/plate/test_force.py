@@ -14,7 +14,7 @@ from thinfilm.engine import Engine
 from thinfilm.plate.kind import KIND, build_grid, make_load, make_model
 from thinfilm.plate.model import crack_profile
 from thinfilm.plate.results import PlateResults
-from thinfilm.plots import _axis
+from thinfilm.plots import axis_label
 from thinfilm.scene import load_scene
 
 from tests.helpers import CASES, load_case
@@ -226,4 +226,4 @@ def test_a_run_writes_summarizes_reports_and_draws_the_force(tmp_path, capsys):
     total = summary["steps"]["total"][-1] * D_scene
     assert "energies at the last finished step in SI units:" in info and f"total {total:.6g} J" in info
     with PlateResults(out / "results.h5") as res:  # the field figures' axes give L in SI
-        assert _axis(res, "x") == "x (L = 1.88 µm)"
+        assert axis_label(res, "x") == "x (L = 1.88 µm)"

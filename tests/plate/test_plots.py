@@ -8,7 +8,7 @@ from tests.helpers import load_case
 from thinfilm.plate.loads import contact_radius
 from thinfilm.plate.plots import cracks_figure
 from thinfilm.plate.results import PlateResults
-from thinfilm.plots import _image_figure, plt, snapshot_steps
+from thinfilm.plots import image_figure, plt, snapshot_steps
 from thinfilm.run import run
 
 
@@ -23,7 +23,7 @@ def indentation(tmp_path_factory):
 def snapshot_figure(res, field="alpha"):
     steps = snapshot_steps(res.t, res.parameters["snapshots"])
     values = np.array([res.field(field, k) for k in steps])
-    return steps, _image_figure(res, steps, field, values, "snapshots")
+    return steps, image_figure(res, steps, field, values, "snapshots")
 
 
 @pytest.mark.parametrize("field", ["alpha", "u"])

@@ -467,8 +467,8 @@ def test_prediction_kernel_matches_reference():
     dinv = 1.0 / A.diagonal()
     n = b.size
     status, z, dz, violation = (np.empty(n, np.int8), np.empty(n), np.empty(n), np.empty(n))
-    damage_kernels._predict_all(a, r, lower, upper, dinv, status, z, dz, violation)
-    ref = damage_kernels._predict_reference(a, r, lower, upper, dinv)
+    damage_kernels.predict_all(a, r, lower, upper, dinv, status, z, dz, violation)
+    ref = damage_kernels.predict_reference(a, r, lower, upper, dinv)
     for got, want in zip((status, z, dz, violation), ref):
         np.testing.assert_array_equal(got, want)
     assert {0, 1, 2, 3} <= set(np.unique(status).tolist())
@@ -476,7 +476,7 @@ def test_prediction_kernel_matches_reference():
     # The subset kernel writes the same values on the listed nodes only.
     nodes = np.arange(0, n, 3, dtype=np.int64)
     status2 = np.full(n, 9, np.int8)
-    damage_kernels._predict_nodes(nodes, a, r, lower, upper, dinv, status2, z, dz, violation)
+    damage_kernels.predict_nodes(nodes, a, r, lower, upper, dinv, status2, z, dz, violation)
     np.testing.assert_array_equal(status2[nodes], ref[0][nodes])
     assert np.all(np.delete(status2, nodes) == 9)
 
@@ -490,10 +490,10 @@ def test_reduced_system_kernel_matches_reference():
     dz[free] = 0.0
     local = np.full(n, -1, np.int64)
     local[free] = np.arange(free.size)
-    indptr, indices, data, rhs = damage_kernels._extract_free_system(A.indptr, A.indices, A.data,
+    indptr, indices, data, rhs = damage_kernels.extract_free_system(A.indptr, A.indices, A.data,
                                                             free, local, r, dz)
     A_ff = sp.csr_array((data, indices, indptr), shape=(free.size,) * 2)
-    A_ref, rhs_ref = damage_kernels._extract_free_system_reference(A, free, r, dz)
+    A_ref, rhs_ref = damage_kernels.extract_free_system_reference(A, free, r, dz)
     np.testing.assert_allclose(A_ff.toarray(), A_ref.toarray(), rtol=0, atol=0)
     np.testing.assert_allclose(rhs, rhs_ref, rtol=1e-14, atol=1e-12)
 
@@ -510,7 +510,7 @@ def test_local_step_matches_full_products():
     new[nodes] = values
     full = new - a
 
-    step = damage._LocalStep(A)
+    step = damage.LocalStep(A)
     d_energy, slope = step.evaluate(nodes, s, r)
     assert slope == pytest.approx(float(full @ r), rel=1e-12)
     assert d_energy == pytest.approx(float(full @ r) + 0.5 * float(full @ (A @ full)), rel=1e-12)
@@ -532,14 +532,14 @@ def test_residual_rows_kernel():
     A, b, lower, upper, a = _random_state(seed=7)
     r = np.full(b.size, np.nan)
     rows = np.arange(3, b.size, 5, dtype=np.int64)
-    damage_kernels._residual_rows(A.indptr, A.indices, A.data, a, b, rows, r)
+    damage_kernels.residual_rows(A.indptr, A.indices, A.data, a, b, rows, r)
     np.testing.assert_allclose(r[rows], (A @ a - b)[rows], rtol=1e-13, atol=1e-12)
     assert np.isnan(np.delete(r, rows)).all()
 
 
 def test_split_and_prepare_kernels():
     status = np.array([0, 3, 2, 0, 1, 4], np.int8)
-    free, moving = damage_kernels._split_step_nodes(status)
+    free, moving = damage_kernels.split_step_nodes(status)
     np.testing.assert_array_equal(free, [0, 3])
     np.testing.assert_array_equal(moving, [1, 5])
 
@@ -547,12 +547,12 @@ def test_split_and_prepare_kernels():
     upper = np.array([1.0, 0.2, 0.5])
     a0 = np.array([-1.0, 0.7, 0.3])
     a, dinv = np.empty(3), np.empty(3)
-    out = damage_kernels._prepare(np.ones(3), lower, upper, a0, np.array([2.0, 4.0, 1.0]), a, dinv)
+    out = damage_kernels.prepare(np.ones(3), lower, upper, a0, np.array([2.0, 4.0, 1.0]), a, dinv)
     assert out == (0, 0, 2)
     np.testing.assert_array_equal(a, [0.0, 0.2, 0.3])
     np.testing.assert_array_equal(dinv, [0.5, 0.25, 1.0])
     bad_diag = np.array([2.0, 4.0, -1.0])
-    assert damage_kernels._prepare(np.ones(3), lower, upper, a0, bad_diag, a, dinv)[:2] == (6, 2)
+    assert damage_kernels.prepare(np.ones(3), lower, upper, a0, bad_diag, a, dinv)[:2] == (6, 2)
 
 
 def test_pcg_kernel_solves_to_the_scaled_tolerance():
@@ -560,14 +560,14 @@ def test_pcg_kernel_solves_to_the_scaled_tolerance():
     rhs = np.random.default_rng(6).standard_normal(A.shape[0])
     dinv = 1.0 / A.diagonal()
     x = np.zeros_like(rhs)
-    iterations, residual = damage_kernels._pcg_jacobi(A.indptr, A.indices, A.data, rhs, dinv,
+    iterations, residual = damage_kernels.pcg_jacobi(A.indptr, A.indices, A.data, rhs, dinv,
                                               1e-11, 1000, x)
     assert 0 < iterations < 1000 and residual <= 1e-11
     assert np.max(np.abs(A @ x - rhs) * dinv) <= 1e-10
     # Not positive definite: reported as a breakdown.
     x = np.zeros(2)
     M = sp.csr_array(np.array([[1.0, 2.0], [2.0, 1.0]]))
-    _, residual = damage_kernels._pcg_jacobi(M.indptr, M.indices, M.data, np.array([1.0, -1.0]),
+    _, residual = damage_kernels.pcg_jacobi(M.indptr, M.indices, M.data, np.array([1.0, -1.0]),
                                      np.ones(2), 1e-12, 10, x)
     assert residual == -1.0
 
@@ -576,4 +576,4 @@ def test_count_classes_kernel():
     a = np.array([0.0, 0.5, 1.0, 0.2, 0.0])
     lower = np.array([0.0, 0.0, 0.0, 0.2, 0.0])
     upper = np.array([1.0, 1.0, 1.0, 0.2, 0.0])
-    assert damage_kernels._count_classes(a, lower, upper) == (1, 1, 1, 2)
+    assert damage_kernels.count_classes(a, lower, upper) == (1, 1, 1, 2)

@@ -103,8 +103,8 @@ _LINEAR_SOLVERS = ("auto", "direct", "cg")
 
 # Status codes of the active-set prediction: free; predicted on a bound and already
 # there; predicted on a bound and not there yet (the "moving" nodes of a step).
-_FREE, _AT_LOWER, _AT_UPPER, _TO_LOWER, _TO_UPPER = (
-    kernels._FREE, kernels._AT_LOWER, kernels._AT_UPPER, kernels._TO_LOWER, kernels._TO_UPPER)
+FREE, AT_LOWER, AT_UPPER, TO_LOWER, TO_UPPER = (
+    kernels.FREE, kernels.AT_LOWER, kernels.AT_UPPER, kernels.TO_LOWER, kernels.TO_UPPER)
 
 # Armijo constant: a step must achieve this fraction of the decrease predicted by the
 # linear model. Small, as usual: it only rules out steps that barely decrease.
@@ -365,7 +365,7 @@ def solve_box_qp(
     # One pass: finiteness, lower <= upper, diag > 0, and the projection of a0 (its
     # entries outside the bounds become the bound values themselves, so the bounds
     # hold exactly from the start).
-    problem, where, a0_projected = kernels._prepare(b, lower, upper, a0, diag, a, dinv)
+    problem, where, a0_projected = kernels.prepare(b, lower, upper, a0, diag, a, dinv)
     if problem:
         _raise_input_error(problem, where, b, lower, upper, a0, diag)
 
@@ -377,7 +377,7 @@ def solve_box_qp(
     dz = np.empty(n)
     violation = np.empty(n)
     local_index = np.full(n, -1, dtype=np.int64)
-    step = _LocalStep(A)
+    step = LocalStep(A)
     # Nodes whose residual has been updated incrementally since it was last computed
     # from scratch: the final KKT test recomputes them (the updates assume A
     # symmetric and accumulate round-off).
@@ -390,7 +390,7 @@ def solve_box_qp(
         r_new = A @ a - b
         timings["residual"] += time.perf_counter() - tic
         tic = time.perf_counter()
-        kernels._predict_all(a, r_new, lower, upper, dinv, status, z, dz, violation)
+        kernels.predict_all(a, r_new, lower, upper, dinv, status, z, dz, violation)
         timings["active_set"] += time.perf_counter() - tic
         stale[:] = False
         return r_new
@@ -400,11 +400,11 @@ def solve_box_qp(
         prediction."""
         tic = time.perf_counter()
         rows = np.flatnonzero(stale)
-        kernels._residual_rows(A.indptr, A.indices, A.data, a, b, rows, r)
+        kernels.residual_rows(A.indptr, A.indices, A.data, a, b, rows, r)
         stale[rows] = False
         timings["residual"] += time.perf_counter() - tic
         tic = time.perf_counter()
-        kernels._predict_nodes(rows, a, r, lower, upper, dinv, status, z, dz, violation)
+        kernels.predict_nodes(rows, a, r, lower, upper, dinv, status, z, dz, violation)
         timings["active_set"] += time.perf_counter() - tic
 
     r = refresh()
@@ -416,7 +416,7 @@ def solve_box_qp(
         i = int(np.flatnonzero(~np.isfinite(violation))[0])
         raise ValueError(f"A has a non-finite entry in row {i} ((A a - b)[{i}] = "
                          f"{float(r[i])!r}): all entries must be finite")
-    energy = kernels._energy_from_residual(a, r, b)
+    energy = kernels.energy_from_residual(a, r, b)
     energies = [energy]
     kkts = [kkt]
     steps, free_sizes = [], []
@@ -435,12 +435,12 @@ def solve_box_qp(
 
         # ---- Newton step on the predicted active set -------------------------------
         tic = time.perf_counter()
-        free, moving = kernels._split_step_nodes(status)
+        free, moving = kernels.split_step_nodes(status)
         timings["active_set"] += time.perf_counter() - tic
 
         tic = time.perf_counter()
         local_index[free] = np.arange(free.size)
-        sub_indptr, sub_indices, sub_data, rhs = kernels._extract_free_system(
+        sub_indptr, sub_indices, sub_data, rhs = kernels.extract_free_system(
             A.indptr, A.indices, A.data, free, local_index, r, dz)
         local_index[free] = -1
         A_ff = sp.csr_array((sub_data, sub_indices, sub_indptr), shape=(free.size,) * 2)
@@ -448,7 +448,7 @@ def solve_box_qp(
 
         tic = time.perf_counter()
         linear_tol = _LINEAR_TOL_FRACTION * rtol
-        if moving.size or kernels._any_on_bound(free, a, lower, upper):
+        if moving.size or kernels.any_on_bound(free, a, lower, upper):
             # The active set changes in this step, so it is likely to change again:
             # an exact solve would be wasted (inexact Newton).
             linear_tol = max(linear_tol, _FORCING * kkt)
@@ -490,7 +490,7 @@ def solve_box_qp(
             any_stale = True
             timings["step"] += time.perf_counter() - tic
             tic = time.perf_counter()
-            kernels._predict_nodes(changed, a, r, lower, upper, dinv, status, z, dz, violation)
+            kernels.predict_nodes(changed, a, r, lower, upper, dinv, status, z, dz, violation)
             timings["active_set"] += time.perf_counter() - tic
         else:
             # Safeguard 2: projected gradient, which always lowers the energy.
@@ -514,12 +514,12 @@ def solve_box_qp(
         recompute_stale(r)
         kkt = kkts[-1] = float(violation.max())
     converged = kkt <= rtol
-    n_free, n_lower, n_upper, n_fixed = kernels._count_classes(a, lower, upper)
+    n_free, n_lower, n_upper, n_fixed = kernels.count_classes(a, lower, upper)
     result = BoxQPResult(
         a=a,
         iterations=iteration,
         kkt_residual=kkt,
-        energy=kernels._energy_from_residual(a, r, b),
+        energy=kernels.energy_from_residual(a, r, b),
         n_free=n_free,
         n_lower=n_lower,
         n_upper=n_upper,
@@ -547,7 +547,7 @@ def solve_box_qp(
 # --------------------------------------------------------------------------------------
 
 
-class _LocalStep:
+class LocalStep:
     """A step ``s`` supported on a few nodes, with ``A s`` formed on their neighbours only.
 
     ``evaluate`` gives the energy change of a trial step, ``apply`` makes it the new
@@ -572,7 +572,7 @@ class _LocalStep:
         """
         self._As[self._touched[:self._count]] = 0.0
         A = self._A
-        self._count, slope, curvature = kernels._scatter_product(
+        self._count, slope, curvature = kernels.scatter_product(
             A.indptr, A.indices, A.data, nodes, s, r, self._As, self._marked, self._touched)
         return slope + 0.5 * curvature, slope
 
@@ -591,7 +591,7 @@ class _LocalStep:
 
 
 def _raise_input_error(problem, i, b, lower, upper, a0, diag):
-    """Turn the code returned by :func:`kernels._prepare` into a ValueError naming the entry."""
+    """Turn the code returned by :func:`kernels.prepare` into a ValueError naming the entry."""
     if problem <= 4:  # a non-finite entry
         key, values = (("b", b), ("lower", lower), ("upper", upper), ("a0", a0))[problem - 1]
         raise ValueError(f"{key}[{i}] = {float(values[i])!r}: must be finite")
@@ -675,7 +675,7 @@ def _solve_reduced(A_ff, rhs, dinv_ff, tol, linear_solver, direct_max_free, cg_m
     if linear_solver == "direct" or (linear_solver == "auto" and n_free <= direct_max_free):
         return _direct_solve(A_ff, rhs), 0
     x = np.zeros(n_free)
-    iterations, residual = kernels._pcg_jacobi(A_ff.indptr, A_ff.indices, A_ff.data, rhs,
+    iterations, residual = kernels.pcg_jacobi(A_ff.indptr, A_ff.indices, A_ff.data, rhs,
                                        dinv_ff, tol, cg_max_iter, x)
     if residual < 0.0:
         raise DamageSolverError(
@@ -749,4 +749,4 @@ def _as_vector(key, value, n):
         return np.full(n, float(arr))
     if arr.shape != (n,):
         raise ValueError(f"{key}.shape = {arr.shape}: must be ({n},) or a scalar")
-    return np.ascontiguousarray(arr)  # finiteness: checked by kernels._prepare
+    return np.ascontiguousarray(arr)  # finiteness: checked by kernels.prepare

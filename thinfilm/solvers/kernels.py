@@ -9,7 +9,7 @@ import numpy as np
 
 # Node status codes, shared with thinfilm.solvers.boxqp: free, on the lower bound, on the upper
 # bound, predicted to go to the lower bound, predicted to go to the upper bound.
-_FREE, _AT_LOWER, _AT_UPPER, _TO_LOWER, _TO_UPPER = 0, 1, 2, 3, 4
+FREE, AT_LOWER, AT_UPPER, TO_LOWER, TO_UPPER = 0, 1, 2, 3, 4
 
 
 def kkt_violation(r: np.ndarray, a: np.ndarray, lower, upper) -> np.ndarray:
@@ -40,7 +40,7 @@ def kkt_violation(r: np.ndarray, a: np.ndarray, lower, upper) -> np.ndarray:
 
 @numba.njit(cache=True, inline="always")
 def _predict_node(i, a, r, lower, upper, dinv, status, z, dz, violation):
-    """KKT violation and active-set prediction of node ``i`` (see :func:`_predict_all`)."""
+    """KKT violation and active-set prediction of node ``i`` (see :func:`predict_all`)."""
     ai, lo, hi = a[i], lower[i], upper[i]
     step = r[i] * dinv[i]  # Jacobi update of node i, in units of damage
     if lo == hi:
@@ -55,19 +55,19 @@ def _predict_node(i, a, r, lower, upper, dinv, status, z, dz, violation):
     violation[i] = v if v == v else np.inf
     target = ai - step
     if target <= lo:
-        status[i] = _AT_LOWER if ai == lo else _TO_LOWER
+        status[i] = AT_LOWER if ai == lo else TO_LOWER
         z[i] = lo
     elif target >= hi:
-        status[i] = _AT_UPPER if ai == hi else _TO_UPPER
+        status[i] = AT_UPPER if ai == hi else TO_UPPER
         z[i] = hi
     else:
-        status[i] = _FREE
+        status[i] = FREE
         z[i] = ai
     dz[i] = z[i] - ai
 
 
 @numba.njit(cache=True)
-def _predict_all(a, r, lower, upper, dinv, status, z, dz, violation):
+def predict_all(a, r, lower, upper, dinv, status, z, dz, violation):
     """At every node: scaled KKT violation and prediction from the Jacobi point.
 
     Writes ``violation[i]`` (the module docstring's ``v_i / d_i``), and the prediction
@@ -81,25 +81,25 @@ def _predict_all(a, r, lower, upper, dinv, status, z, dz, violation):
 
 
 @numba.njit(cache=True)
-def _predict_nodes(nodes, a, r, lower, upper, dinv, status, z, dz, violation):
-    """:func:`_predict_all` restricted to the nodes listed in ``nodes`` (int64)."""
+def predict_nodes(nodes, a, r, lower, upper, dinv, status, z, dz, violation):
+    """:func:`predict_all` restricted to the nodes listed in ``nodes`` (int64)."""
     for i in nodes:
         _predict_node(i, a, r, lower, upper, dinv, status, z, dz, violation)
 
 
-def _predict_reference(a, r, lower, upper, dinv):
-    """NumPy reference of :func:`_predict_all`: ``(status, z, dz, violation)``."""
+def predict_reference(a, r, lower, upper, dinv):
+    """NumPy reference of :func:`predict_all`: ``(status, z, dz, violation)``."""
     violation = kkt_violation(r, a, lower, upper) * dinv
     target = a - r * dinv
     to_lower, to_upper = target <= lower, (target >= upper) & ~(target <= lower)
     z = np.where(to_lower, lower, np.where(to_upper, upper, a))
     status = np.select([to_lower & (a == lower), to_lower, to_upper & (a == upper), to_upper],
-                       [_AT_LOWER, _TO_LOWER, _AT_UPPER, _TO_UPPER], _FREE).astype(np.int8)
+                       [AT_LOWER, TO_LOWER, AT_UPPER, TO_UPPER], FREE).astype(np.int8)
     return status, z, z - a, violation
 
 
 @numba.njit(cache=True)
-def _extract_free_system(indptr, indices, data, free, local_index, r, dz):
+def extract_free_system(indptr, indices, data, free, local_index, r, dz):
     """Reduced matrix ``A_FF`` (CSR) and right-hand side of the Newton step.
 
     Parameters
@@ -146,14 +146,14 @@ def _extract_free_system(indptr, indices, data, free, local_index, r, dz):
     return sub_indptr, sub_indices[:nnz], sub_data[:nnz], rhs
 
 
-def _extract_free_system_reference(A, free, r, dz):
-    """NumPy/SciPy reference of :func:`_extract_free_system`: ``(A_FF, rhs)``."""
+def extract_free_system_reference(A, free, r, dz):
+    """NumPy/SciPy reference of :func:`extract_free_system`: ``(A_FF, rhs)``."""
     rows = A[free]
     return rows[:, free], -(r[free] + rows @ dz)
 
 
 @numba.njit(cache=True)
-def _scatter_product(indptr, indices, data, nodes, s, r, As, marked, touched):
+def scatter_product(indptr, indices, data, nodes, s, r, As, marked, touched):
     """Accumulate ``As += A s`` for a step ``s`` on ``nodes``, list the nodes reached, and
     return the slope ``r.s`` and curvature ``s.A.s`` of the step.
 
@@ -208,9 +208,9 @@ def _scatter_product(indptr, indices, data, nodes, s, r, As, marked, touched):
 
 
 @numba.njit(cache=True)
-def _energy_from_residual(a, r, b):
+def energy_from_residual(a, r, b):
     """``1/2 a.A.a - b.a = 1/2 (a.r - a.b)`` with ``r = A a - b`` (serial sums, see
-    :func:`_scatter_product`)."""
+    :func:`scatter_product`)."""
     ar = 0.0
     ab = 0.0
     for i in range(a.size):
@@ -220,7 +220,7 @@ def _energy_from_residual(a, r, b):
 
 
 @numba.njit(cache=True)
-def _any_on_bound(nodes, a, lower, upper):
+def any_on_bound(nodes, a, lower, upper):
     """Whether some listed node sits on one of its bounds."""
     for i in nodes:
         if a[i] == lower[i] or a[i] == upper[i]:
@@ -229,7 +229,7 @@ def _any_on_bound(nodes, a, lower, upper):
 
 
 @numba.njit(cache=True)
-def _residual_rows(indptr, indices, data, a, b, rows, r):
+def residual_rows(indptr, indices, data, a, b, rows, r):
     """``r[i] = (A a - b)[i]`` from scratch for the nodes ``i`` listed in ``rows``."""
     for i in rows:
         acc = 0.0
@@ -239,32 +239,32 @@ def _residual_rows(indptr, indices, data, a, b, rows, r):
 
 
 @numba.njit(cache=True)
-def _split_step_nodes(status):
+def split_step_nodes(status):
     """Free nodes and moving nodes (predicted on a bound, not there yet), both
     increasing int64 arrays. Reads only the int8 status: the cheapest O(n) scan."""
     n_free = 0
     n_moving = 0
     for i in range(status.size):
-        if status[i] == _FREE:
+        if status[i] == FREE:
             n_free += 1
-        elif status[i] >= _TO_LOWER:
+        elif status[i] >= TO_LOWER:
             n_moving += 1
     free = np.empty(n_free, dtype=np.int64)
     moving = np.empty(n_moving, dtype=np.int64)
     n_free = 0
     n_moving = 0
     for i in range(status.size):
-        if status[i] == _FREE:
+        if status[i] == FREE:
             free[n_free] = i
             n_free += 1
-        elif status[i] >= _TO_LOWER:
+        elif status[i] >= TO_LOWER:
             moving[n_moving] = i
             n_moving += 1
     return free, moving
 
 
 @numba.njit(cache=True)
-def _prepare(b, lower, upper, a0, diag, a, dinv):
+def prepare(b, lower, upper, a0, diag, a, dinv):
     """Check the inputs and project the initial guess, in one pass over the nodes.
 
     Writes ``a = min(max(a0, lower), upper)`` and ``dinv = 1 / diag``.
@@ -307,7 +307,7 @@ def _prepare(b, lower, upper, a0, diag, a, dinv):
 
 
 @numba.njit(cache=True)
-def _count_classes(a, lower, upper):
+def count_classes(a, lower, upper):
     """``(n_free, n_lower, n_upper, n_fixed)`` of a feasible point (see BoxQPResult)."""
     n_free = n_lower = n_upper = n_fixed = 0
     for i in range(a.size):
@@ -323,7 +323,7 @@ def _count_classes(a, lower, upper):
 
 
 @numba.njit(cache=True)
-def _pcg_jacobi(indptr, indices, data, rhs, dinv, tol, max_iter, x):
+def pcg_jacobi(indptr, indices, data, rhs, dinv, tol, max_iter, x):
     """Jacobi-preconditioned CG for the SPD CSR system ``M x = rhs``, from ``x = 0``.
 
     Stops when ``max_i |rhs - M x|_i / M_ii <= tol``: the measure of the outer KKT test
