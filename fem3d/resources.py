@@ -63,10 +63,12 @@ def estimate(scene):
     fields = steps * 8.0 * (d + 1) * n * per_vertex
     memory = BASE_BYTES + model + fields + steps * STEP_BYTES
     what = f"about {count(n)} nodes x {size(NODE_BYTES[d] * per_vertex)}, and {count(steps)} steps of fields"
+    # each key's own need: its value with the other at its least (two steps; a tiny mesh)
+    alone = BASE_BYTES + model + 2.0 * (fields / steps + STEP_BYTES)
     if scene.geometry.kind == "file":
-        mesh_key = Size("geometry.file", scene.geometry.file, memory, model + fields, remedy="use a coarser mesh")
+        mesh_key = Size("geometry.file", scene.geometry.file, alone, model + fields, remedy="use a coarser mesh")
     else:
-        mesh_key = Size("mesh.h", scene.mesh.h, memory, model + fields, remedy="use a larger h")
+        mesh_key = Size("mesh.h", scene.mesh.h, alone, model + fields, remedy="use a larger h")
     values = getattr(scene.load, "values", None)
     key, value = ("load.t", list(values)) if values is not None else ("load.steps", scene.load.steps)
     step_key = Size(key, value, BASE_BYTES + steps * STEP_BYTES, fields + steps * STEP_BYTES, remedy="use fewer steps")

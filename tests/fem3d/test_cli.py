@@ -106,13 +106,15 @@ def test_a_fem_run_extended_with_more_loads_is_the_longer_run(full, tmp_path, ca
 
 
 def test_steps_that_cannot_fit_the_memory_are_refused_at_once(tmp_path, capsys):
-    # Its mesh is only known once gmsh has made it: the steps alone are estimated.
+    # The mesh's nodes are estimated from the specimen's extent before gmsh makes it; the
+    # steps' fields are what cannot fit.
     scene = tmp_path / "beam.toml"
     scene.write_text((CASES / "three_point_bending_I.toml").read_text())
     assert main(["run", str(scene), "--set", "load.steps=10000000000"]) == 2
     captured = capsys.readouterr()
     lines = captured.err.splitlines()
     assert len(lines) == 1 and "Traceback" not in captured.err, captured.err
-    assert lines[0].startswith(f"thinfilm: error: {scene}: load.steps = 10000000000: the run needs about 200 TB of memory (1e+10 steps x 20 kB)")
+    assert lines[0].startswith(f"thinfilm: error: {scene}: load.steps = 10000000000: the run needs about")
+    assert "nodes x 4 kB, and 1e+10 steps of fields)" in lines[0]
     assert "available on this machine; use fewer steps" in lines[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["beam.toml"]

@@ -166,8 +166,6 @@ def draw(outdir, plan, table_rows):
     import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
 
-    from thinfilm.plots import save_figure
-
     keys = list(plan["keys"])
     seed = plan.get("seed")
     x_key = keys[0]
@@ -230,6 +228,8 @@ def _save(fig, axes, outdir, plan, done, table_rows, plt):
     axes[0, 0].set_title(f"scan of {Path(plan['base']).name}" + (f" ({len(done)} of {len(table_rows)} runs done)"
                                                                   if len(done) < len(table_rows) else ""))
     fig.tight_layout()
+    from thinfilm.plots import save_figure
+
     path = Path(outdir) / FIGURE
     save_figure(fig, path, dpi=110)
     plt.close(fig)
