@@ -17,26 +17,21 @@ from fem3d import scene as fem_scene, specimens
 from thinfilm.run import EvolutionKind, Setup, peak_force_line
 from thinfilm.scene import SceneError
 
-__all__ = ["KIND", "FemKind", "build_mesh", "build_model", "crack_lengths", "crack_events", "AMG_MIN_DOFS_3D",
-           "AMG_OPTIONS"]
+__all__ = ["KIND", "FemKind", "build_mesh", "build_model", "crack_lengths", "crack_events", "units_of",
+           "AMG_MIN_DOFS_3D", "AMG_OPTIONS", "CUT_THROUGH"]
 
 #: ``[solver] linear = "auto"`` uses AMG-preconditioned CG for 3D problems from this many free
-#: dofs, a sparse direct solver below and in 2D (``docs/speed.md#finite-elements``: in 2D the
-#: refactorization wins by 25-40x; on the 3D L-panel an alternate-minimization iteration took
-#: 1.1 s (direct) against 0.41 s (AMG) at 40k dofs, 3.3 s against 0.66 s at 67k, and about the
-#: same at 9k).
+#: dofs, a sparse direct solver below and in 2D, where each wins (docs/speed.md#finite-elements).
 AMG_MIN_DOFS_3D = 20_000
 
-#: Smoothed-aggregation settings for elasticity (passed over the plate-tuned defaults of
-#: :data:`thinfilm.solvers.linear.AMG_DEFAULTS`): pyamg's own, symmetric strength with
-#: theta = 0 and a Jacobi-smoothed prolongator. On the 3D L-panel at 211k dofs (one thread):
-#: setup 5.1 s and 1.2 GB, a damaged re-solve to 1e-6 in 1.9 s (23 CG iterations); the
-#: plate's theta = 0.08 with energy-minimizing P: 83 s and 3.9 GB, 9.2 s (18 iterations), its
-#: coarse levels much denser; theta = 0 with energy P: 21 s and 2.2 GB, 1.9 s.
 #: Fraction of the peak elastic energy below which a specimen no longer carries its load:
 #: no energy release rate is computed there (``fem3d.release.energy_release_rate``).
 CUT_THROUGH = 0.01
 
+#: Smoothed-aggregation settings for elasticity (passed over the plate-tuned defaults of
+#: :data:`thinfilm.solvers.linear.AMG_DEFAULTS`): pyamg's own, symmetric strength with
+#: theta = 0 and a Jacobi-smoothed prolongator, far cheaper to set up than the plate's
+#: (docs/solvers.md#p1-finite-elements).
 AMG_OPTIONS = {"strength": ("symmetric", {"theta": 0.0}), "smooth": ("jacobi", {})}
 
 
