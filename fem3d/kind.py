@@ -206,6 +206,10 @@ class FemKind(EvolutionKind):
     def parse(self, source, data, text):
         return fem_scene.parse(source, data, text)
 
+    def inputs(self, scene):
+        """The ``.msh`` file of ``geometry.kind = "file"`` (its digest is stored with the results)."""
+        return {"geometry.file": scene.geometry.file} if scene.geometry.file else {}
+
     def setup(self, scene):
         mesh = build_mesh(scene)
         model = build_model(scene, mesh)
