@@ -195,7 +195,7 @@ class EvolutionKind:
     def inputs(self, scene) -> dict:
         """The files the scene reads, ``{scene key: path}`` (a mesh, a field file); their
         SHA-256 is stored with the results, and a resume whose files changed is refused
-        (:func:`thinfilm.resume.check_inputs`). None by default."""
+        (:func:`thinfilm.resume.check_inputs`). By default none."""
         return {}
 
     def estimate(self, scene):

@@ -43,9 +43,20 @@ def _argv(out, *options):
 
 def _child(argv, kill_at, events_file, mkl_rt):
     """A run in a forked process: killed at its ``kill_at``-th I/O event if not 0; writes
-    the number of events to ``events_file`` if given."""
+    the number of events to ``events_file`` if given, and the index of each step stored
+    (once ``write_step`` has returned) to ``stored.txt`` in the run directory."""
     from thinfilm.results import journal
+    from thinfilm.results.writer import ResultsWriter
     from thinfilm.run import EvolutionKind
+
+    write_step = ResultsWriter.write_step
+
+    def logged(self, record, state, observed=None):
+        write_step(self, record, state, observed)
+        with open(self.path.parent / "stored.txt", "a") as log:
+            log.write(f"{record.index}\n")
+
+    ResultsWriter.write_step = logged
 
     if mkl_rt:  # pypardiso looks for MKL at each solver it makes (a glob over sys.prefix, 0.6 s)
         os.environ["PYPARDISO_MKL_RT"] = mkl_rt
@@ -114,6 +125,7 @@ def twin(fork, tmp_path_factory):
 
 def test_runs_killed_at_any_instant_resume_to_the_uninterrupted_run(fork, twin, tmp_path):
     reference, events, duration = twin
+    backtracked = set(np.flatnonzero(reference[0]["backtracks"]).tolist())
     rng = random.Random(20261205)
     outcomes = []
     for k in range(KILLS):
@@ -133,10 +145,17 @@ def test_runs_killed_at_any_instant_resume_to_the_uninterrupted_run(fork, twin, 
             continue
         assert process.exitcode == -signal.SIGKILL
         n = 0
+        stored = [int(k) for k in (out / "stored.txt").read_text().split()] if (out / "stored.txt").exists() else []
         if results.exists():         # made under another name and renamed: whole, or not there
             with open_results(results) as f:   # (its steps are the evolution so far, which a later
                 n = finished_steps(f)          # backtrack would have rewritten: not compared)
-                assert len(f["fields/alpha"]) >= n and f["steps/t"][n - 1] == reference[0]["t"][n - 1] if n else True
+                assert n == 0 or f["steps/t"][n - 1] == reference[0]["t"][n - 1]
+        if stored:
+            # every step stored before the kill is there (and perhaps the step in flight),
+            # unless that one was a backtrack, which cuts the later steps
+            assert stored[-1] + 1 <= n <= stored[-1] + 2 or n - 1 in backtracked, (stored[-1], n)
+        else:
+            assert n <= 1        # none, or the first step, in flight at the kill
         resumed = fork(_argv(out, "--resume"))
         resumed.join(120)
         assert resumed.exitcode == 0
@@ -294,3 +313,47 @@ def test_a_second_writer_is_refused(tmp_path):
         JournaledFile(path)
     first.close()
     JournaledFile(path).close()
+
+
+def test_a_failed_write_is_not_committed(tmp_path, monkeypatch):
+    """The disk fills up in the middle of a step: nothing after the last commit is
+    committed, and the file returns to it."""
+    import errno
+
+    from thinfilm.results.journal import JournaledFile, journal_path, recover
+    from thinfilm.results.reader import open_committed
+
+    path = tmp_path / "results.h5"
+    with h5py.File(path, "w") as f:
+        f.create_dataset("fields/alpha", shape=(0, 5000), maxshape=(None, 5000), dtype=np.float64, chunks=(1, 5000))
+    journaled = JournaledFile(path)
+    f = h5py.File(journaled, "r+")
+    ds = f["fields/alpha"]
+    ds.resize(1, axis=0)
+    ds[0] = 1.0
+    f.flush()
+    journaled.commit()
+    committed = path.read_bytes()
+    pwrite = os.pwrite
+
+    def full(fd, data, offset):
+        if fd == journaled.fd:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return pwrite(fd, data, offset)
+
+    monkeypatch.setattr(os, "pwrite", full)
+    with pytest.raises(OSError):
+        ds.resize(2, axis=0)
+        ds[1] = 2.0
+        f.flush()
+    monkeypatch.undo()
+    try:
+        f.close()              # HDF5 may refuse to after a failed flush
+    except (OSError, RuntimeError):
+        pass
+    journaled.commit()         # refused: the journal stays
+    journaled.close()
+    assert journal_path(path).exists()
+    with open_committed(path) as g:
+        assert len(g["fields/alpha"]) == 1
+    assert recover(path) and path.read_bytes() == committed

@@ -5,7 +5,7 @@ of its own, so a process killed in the middle of writing a step can leave a file
 metadata point at blocks never written, and whose earlier steps cannot be read any more. A
 run's file is therefore written through :class:`JournaledFile`, an ordinary Python file
 object given to h5py (HDF5 then does all its I/O through it), which keeps the classic
-rollback journal of databases (``docs/results.md#stopping-and-resuming``):
+rollback journal of databases (``docs/results.md#killed-runs``):
 
 * before a byte that the file held at the last commit is overwritten (or cut off by a
   truncation), its old value is appended to the journal ``results.h5.journal``; bytes
@@ -227,6 +227,7 @@ class JournaledFile(io.RawIOBase):
         self.committed = self.size
         self.jfd = None
         self.saved = _Intervals()
+        self.failed = False
 
     # -- the journal --------------------------------------------------------------------------
     def _begin(self):
@@ -255,8 +256,12 @@ class JournaledFile(io.RawIOBase):
             self.saved.add(a, b)
 
     def commit(self):
-        """The file as it stands (flushed by HDF5) is the new state a rollback returns to."""
-        if self.jfd is None:
+        """The file as it stands (flushed by HDF5) is the new state a rollback returns to.
+
+        Nothing is committed once a write or a truncation has failed (a full disk, an
+        exception raised in the middle of one): the journal stays, and the next opening
+        returns the file to its last commit."""
+        if self.jfd is None or self.failed:
             return
         _event()
         os.close(self.jfd)
@@ -297,9 +302,13 @@ class JournaledFile(io.RawIOBase):
     def write(self, data):
         view = memoryview(data).cast("B")
         n = view.nbytes
-        self._save(self.pos, self.pos + n)
-        _event(lambda: os.pwrite(self.fd, view[: n // 2], self.pos))
-        _write_all(self.fd, view, self.pos)
+        try:
+            self._save(self.pos, self.pos + n)
+            _event(lambda: os.pwrite(self.fd, view[: n // 2], self.pos))
+            _write_all(self.fd, view, self.pos)
+        except BaseException:
+            self.failed = True
+            raise
         self.pos += n
         self.size = max(self.size, self.pos)
         return n
@@ -307,9 +316,13 @@ class JournaledFile(io.RawIOBase):
     def truncate(self, size=None):
         size = self.pos if size is None else size
         if size != self.size:
-            self._save(size, self.size)
-            _event()
-            os.ftruncate(self.fd, size)
+            try:
+                self._save(size, self.size)
+                _event()
+                os.ftruncate(self.fd, size)
+            except BaseException:
+                self.failed = True
+                raise
             self.size = size
         return size
 

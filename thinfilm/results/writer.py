@@ -354,13 +354,17 @@ class ResultsWriter:
         return states
 
     def close(self):
-        """Close the file (HDF5 writes what it still holds) and commit it."""
+        """Close the file (HDF5 writes what it still holds) and commit it; if that fails (a
+        write failed before), the journal stays and the next opening returns the file to its
+        last finished step."""
         if self.file is None:
             return
-        self.file.close()
-        self.file = None
-        self.journaled.commit()
-        self.journaled.close()
+        try:
+            self.file.close()
+            self.journaled.commit()
+        finally:
+            self.file = None
+            self.journaled.close()
 
 
 def write_summary(path, scene, results, extra=None):
