@@ -94,6 +94,10 @@ def states(sizes, steps):
     return [{name: values + k for name, values in base.items()} for k in range(steps)]
 
 
+#: The journal's size at each commit of the journal candidate (bytes), by case.
+journal_bytes = []
+
+
 def run(candidate, folder, static, sizes, steps):
     """Seconds per step of one candidate writing ``steps`` steps into a fresh file."""
     path = folder / "results.h5"
@@ -109,6 +113,7 @@ def run(candidate, folder, static, sizes, steps):
 
         def commit():
             f.flush()
+            journal_bytes.append(os.path.getsize(journaled.journal))
             journaled.commit()
     elif candidate == "SWMR":
         f = create(path, static, sizes, libver="latest")
@@ -150,6 +155,7 @@ def main(argv=None):
         for case, (static, sizes) in cases().items():
             steps = args.film_steps if case.startswith("film") else args.solid_steps
             times = {c: [] for c in CANDIDATES}
+            journal_bytes.clear()
             for _ in range(args.rounds):
                 for candidate in CANDIDATES:
                     times[candidate] += run(candidate, folder, static, sizes, steps)
@@ -162,7 +168,9 @@ def main(argv=None):
                              "mean ms per step": round(1e3 * float(t.mean()), 2),
                              "max ms per step": round(1e3 * float(t.max()), 2),
                              "ratio to in place (medians)": round(float(np.median(t)) / base, 3),
-                             "steps timed": len(t)})
+                             "steps timed": len(t),
+                             "journal kB per step (median)": (round(float(np.median(journal_bytes)) / 1e3, 1)
+                                                              if candidate == "journal" else "")})
                 print(rows[-1], flush=True)
     RESULTS.mkdir(exist_ok=True)
     with open(RESULTS / "results_write.csv", "w", newline="") as out:
@@ -180,11 +188,13 @@ def main(argv=None):
              f" {load[0]:.1f} at the end), so single steps vary; the ratios are of medians taken in the same run."
              f" h5py {h5py.__version__}, HDF5 {h5py.version.hdf5_version}."
              " Command: `python -m benchmarks.bench_results_write`.", "",
-             "| case | MB per step | candidate | median ms per step | mean | max | ratio to in place |",
-             "|---|---|---|---|---|---|---|"]
+             "| case | MB per step | candidate | median ms per step | mean | max | ratio to in place |"
+             " journal kB per step |",
+             "|---|---|---|---|---|---|---|---|"]
     for r in rows:
         lines.append(f"| {r['case']} | {r['MB per step']} | {r['candidate']} | {r['median ms per step']} |"
-                     f" {r['mean ms per step']} | {r['max ms per step']} | {r['ratio to in place (medians)']} |")
+                     f" {r['mean ms per step']} | {r['max ms per step']} | {r['ratio to in place (medians)']} |"
+                     f" {r['journal kB per step (median)']} |")
     lines += ["", "`in place`: the writer before the journal (a kill in the middle of a step's write can leave a"
               " file that cannot be read). `journal`: the chosen one (`thinfilm/results/journal.py`). `SWMR`:"
               " HDF5's single-writer/multiple-reader mode; a killed writer leaves the file marked open, which"
