@@ -209,6 +209,12 @@ class JournaledFile(io.RawIOBase):
     Parameters
     ----------
     path : str or Path
+
+    Attributes
+    ----------
+    failed : bool
+        Set when a write or a truncation failed (or by the caller, to abandon the changes
+        since the last commit): nothing is committed any more.
     """
 
     def __init__(self, path):

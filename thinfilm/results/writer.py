@@ -194,12 +194,17 @@ class ResultsWriter:
                                           " the stored one (numpy's random generator changed?); it cannot be"
                                           " resumed (run with --force)")
             self._open()  # rolls back a step a killed writer left half written
-            self._continue_with(scene, parameters)
-            n = self.trim()  # a step whose write was cut short is not finished
-            for name in self.step_fields:
-                if name not in self.file["steps"]:   # written before the record existed
-                    self._create_step_dataset(self.file["steps"], name, n)
-            self._commit()
+            try:
+                self._continue_with(scene, parameters)
+                n = self.trim()  # a step whose write was cut short is not finished
+                for name in self.step_fields:
+                    if name not in self.file["steps"]:   # written before the record existed
+                        self._create_step_dataset(self.file["steps"], name, n)
+                self._commit()
+            except BaseException:
+                self.journaled.failed = True  # not committed: the next opening undoes it all
+                self.close()
+                raise
             return
         # made whole under a temporary name, then renamed: never a file that cannot be read
         partial = _atomic_path(self.path)
