@@ -192,6 +192,10 @@ class FemKind(EvolutionKind):
 
         return estimate(scene)
 
+    def inputs(self, scene):
+        """The ``.msh`` file of ``geometry.kind = "file"`` (its digest is stored with the results)."""
+        return {"geometry.file": scene.geometry.file} if scene.geometry.file else {}
+
     def setup(self, scene):
         mesh = build_mesh(scene)
         model = build_model(scene, mesh)

@@ -14,24 +14,32 @@ do not matter. A key that differs is refused, naming it with its old and new val
 * or the two scenes validate to the same model all the same (a default written out, a key
   of a table left empty).
 
-Everything is checked on the file's attributes before the file is opened for writing, so a
-refused resume leaves the results as they were.
+The files the scene reads (a solid's mesh, a film's field file or coarse run: the kind's
+:meth:`thinfilm.run.EvolutionKind.inputs`) are compared by their SHA-256, stored with the
+results (root attribute ``inputs``, :func:`input_digests`): a resume whose files changed or
+are missing is refused, naming the file and the scene key (:func:`check_inputs`).
+
+Everything is checked on the file's attributes before the file is opened for writing (and
+before anything is computed), so a refused resume leaves the results as they were.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 import tomllib
 from dataclasses import dataclass
 from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 
 from thinfilm.scene import SceneError, apply_overrides, parse_scene, show
 from thinfilm.steps import load_steps
 
-__all__ = ["ResumeError", "Continuation", "check_resume", "scene_keys", "scene_changes", "EXTENSION_KEYS"]
+__all__ = ["ResumeError", "Continuation", "check_resume", "scene_keys", "scene_changes", "EXTENSION_KEYS",
+           "INPUTS_ATTRIBUTE", "input_digests", "check_inputs"]
 
 #: The keys that set the loads: they may change when the new loads extend the old ones.
 EXTENSION_KEYS = ("load.t_max", "load.steps", "load.t")
@@ -44,6 +52,8 @@ RULE = ("a resumed run may only extend the loads (load.t_max and load.steps in p
 _UNCOMPARED = {"text", "source", "overrides", "snapshots", "reference", "load.t_max", "load.steps",
                "load.values", "solver.threads"}
 _ABSENT = object()
+#: The root attribute of a results file that holds the digests of the scene's input files.
+INPUTS_ATTRIBUTE = "inputs"
 
 
 class ResumeError(RuntimeError):
@@ -257,3 +267,63 @@ def check_resume(path, attrs, scene):
     return Continuation(planned_before=int(t_old.size), planned=int(t_new.size),
                         changed=tuple(c[0] for c in changes), t_max_before=float(old.load.t_max),
                         steps_before=int(old.load.steps))
+
+
+def _sha256(path):
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def input_digests(inputs):
+    """The SHA-256 of each input file of a scene.
+
+    Parameters
+    ----------
+    inputs : dict
+        ``{scene key: Path}`` (:meth:`thinfilm.run.EvolutionKind.inputs`).
+
+    Returns
+    -------
+    dict
+        ``{scene key: {"path": str, "sha256": hex digest or None}}``, in the keys' order; None
+        for a file that does not exist (any more).
+    """
+    return {key: {"path": str(path), "sha256": _sha256(path) if Path(path).is_file() else None}
+            for key, path in inputs.items()}
+
+
+def check_inputs(path, stored, digests):
+    """Refuse a resume whose input files differ from those the results were computed from.
+
+    Parameters
+    ----------
+    path : str or Path
+        The results file (for messages).
+    stored : str or None
+        Its root attribute ``inputs`` (JSON of :func:`input_digests`), None in a file written
+        before the digests were stored: then nothing is compared (the resumed run adds them).
+    digests : dict
+        :func:`input_digests` of the resumed scene.
+
+    Raises
+    ------
+    ResumeError
+        Naming the scene key and the file, in one line.
+    """
+    for key, new in digests.items():
+        if new["sha256"] is None:
+            raise ResumeError(f"{path} cannot be resumed: {key} = {new['path']} is missing (the run read it;"
+                              " restore it, or run with --force to start over)")
+    if stored is None:
+        return
+    old = json.loads(stored) if isinstance(stored, str) else stored
+    for key, new in digests.items():
+        before = old.get(key)
+        if before is not None and before.get("sha256") != new["sha256"]:
+            moved = "" if before.get("path") == new["path"] else f" (was {before.get('path')})"
+            raise ResumeError(f"{path} was computed from another {key}: {new['path']}{moved} has changed since"
+                              f" (SHA-256 {before.get('sha256', '')[:12]}... -> {new['sha256'][:12]}...); a resumed"
+                              " run must read the same input files (run with --force to start over)")

@@ -4,7 +4,7 @@ The data flow of one run::
 
     scene -> its kind (thinfilm.kinds) -> Setup: the model, its discretization, ...
           -> Engine (thinfilm.engine): load steps, alternate minimization, backtracking...
-          -> each finished step appended to results.h5 and flushed (thinfilm.results)
+          -> each finished step appended to results.h5 and committed (thinfilm.results)
           -> summary.json and figures, made from the file alone (thinfilm.plots, thinfilm.xdmf)
 
 :class:`EvolutionKind` implements a kind's ``run``, ``plot`` and ``info`` for models driven by
@@ -29,7 +29,8 @@ from thinfilm import kinds
 from thinfilm.engine.evolution import Engine
 from thinfilm.results.info import seconds
 from thinfilm.results.reader import Results
-from thinfilm.results.writer import ResultsWriter, ResumeError, write_summary
+from thinfilm.results.writer import ResultsWriter, ResumeError, check_stored_inputs, write_summary
+from thinfilm.resume import input_digests
 from thinfilm.steps import load_steps
 from thinfilm.threads import ThreadGovernor, threads_line, threads_summary
 
@@ -191,6 +192,12 @@ class EvolutionKind:
         """The attributes of ``/parameters`` (``t_max`` and ``steps`` among them)."""
         raise NotImplementedError
 
+    def inputs(self, scene) -> dict:
+        """The files the scene reads, ``{scene key: path}`` (a mesh, a field file); their
+        SHA-256 is stored with the results, and a resume whose files changed is refused
+        (:func:`thinfilm.resume.check_inputs`). By default none."""
+        return {}
+
     def estimate(self, scene):
         """What the run needs (:class:`thinfilm.resources.Estimate`), from the scene alone;
         by default from its load steps (:func:`thinfilm.resources.steps_estimate`): a kind
@@ -248,9 +255,10 @@ class EvolutionKind:
     def run(self, scene, outdir, progress=lambda n: None, resume=False, threads=None):
         """Run a scene and write ``results.h5``, ``summary.json`` and the figures.
 
-        Every finished step is in ``results.h5`` (flushed) as soon as it is done, so a run
-        that is killed leaves a valid file, and ``resume=True`` continues it from its last
-        finished step to the same results as an uninterrupted run; the scene may extend the
+        Every finished step is in ``results.h5`` (flushed and committed) as soon as it is done,
+        so a run killed at any instant leaves a valid file that has every step finished before
+        the kill (:mod:`thinfilm.results.journal`), and ``resume=True`` continues it from its
+        last finished step to the same results as an uninterrupted run; the scene may extend the
         stored one's loads (:mod:`thinfilm.resume`), and the run then continues to the new
         ``t_max`` as one uninterrupted run to it would. Ctrl-C finishes and saves
         the current step, closes the file and raises :class:`RunInterrupted` (a second Ctrl-C
@@ -269,6 +277,10 @@ class EvolutionKind:
             (the kind's summary's events, if any).
         """
         outdir = Path(outdir)
+        results = outdir / "results.h5"
+        inputs = input_digests(self.inputs(scene))
+        if resume:  # the input files before anything is computed (the writer checks the rest)
+            check_stored_inputs(results, inputs)
         # made first: with "auto" it measures the machine's load while the model is set up
         governor = ThreadGovernor(threads if threads is not None else scene.solver.threads)
         setup = self.setup(scene)  # may refuse the scene (SceneError): nothing logged or written yet
@@ -278,23 +290,22 @@ class EvolutionKind:
             log.warning(message)
         outdir.mkdir(parents=True, exist_ok=True)
         engine = Engine.from_options(setup.model, scene.solver)
-        results = outdir / "results.h5"
         writer = None
         try:
             writer = ResultsWriter(results, scene, self.parameters(scene), setup.discretization,
                                    components=setup.components, sizes=setup.sizes,
                                    observables=setup.observables + ("threads",),
-                                   constant=setup.constant, groups=setup.groups, resume=resume)
+                                   constant=setup.constant, groups=setup.groups, resume=resume, inputs=inputs)
             writer.write_attribute("threads", json.dumps(governor.record()))
             history = writer.history(all_alpha=scene.solver.backtrack.kind != "none") if resume else []
         except OSError as err:
-            # HDF5 is not crash-proof: a process killed in the middle of writing a step can
-            # leave a file whose metadata point past its end
+            # a kill leaves the file as it was at its last commit (thinfilm.results.journal):
+            # what cannot be read here was damaged otherwise (cut short by a copy, a full disk)
             if writer is not None:
                 writer.close()
             if not resume:
                 raise
-            raise ResumeError(f"{results} cannot be read back to resume it (cut in the middle of a write: {err});"
+            raise ResumeError(f"{results} cannot be read back to resume it ({' '.join(str(err).split())});"
                               " run with --force to start over") from None
         t_values = load_steps(scene.load)
         if writer.continuation is not None and writer.continuation.extended:

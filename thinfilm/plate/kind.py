@@ -197,6 +197,12 @@ class PlateKind(EvolutionKind):
     def parse(self, source, data, text):
         return plate_scene.parse(source, data, text)
 
+    def inputs(self, scene):
+        """The files the scene reads: a ``"field"`` load's ``load.file``, the coarse run of
+        ``solver.coarse`` (their digests are stored with the results)."""
+        files = {"load.file": scene.load.file, "solver.coarse": scene.coarse}
+        return {key: path for key, path in files.items() if path}
+
     def estimate(self, scene):
         """Memory of the run (:func:`thinfilm.plate.resources.estimate`)."""
         from thinfilm.plate.resources import estimate

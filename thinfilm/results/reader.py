@@ -18,6 +18,7 @@ import h5py
 import numpy as np
 
 from thinfilm import discretization, kinds
+from thinfilm.results.journal import RolledBack, journal_path
 
 #: The ``format`` attribute of every results file, and the newest layout this version writes.
 FORMAT = "thinfilm-results"
@@ -67,8 +68,8 @@ def resolve_results(path):
 def open_results(path):
     """Open a thinfilm ``results.h5`` for reading, after checking that it is one.
 
-    A file still open for writing by a running job is locked by HDF5; it is then opened
-    without the lock, which gives the steps flushed so far (each step is flushed whole).
+    It is read as it stood at its writer's last commit (:func:`open_committed`): a killed
+    run's file up to its last finished step, a running one's up to the steps committed so far.
 
     Parameters
     ----------
@@ -89,14 +90,9 @@ def open_results(path):
     if not h5py.is_hdf5(path):
         raise ResultsError(f"{path}: not an HDF5 file (expected the results.h5 of a thinfilm run)")
     try:
-        f = h5py.File(path, "r")
+        f = open_committed(path)
     except OSError as err:
-        if "lock" not in str(err).lower():
-            raise ResultsError(f"{path}: cannot be opened: {err}") from None
-        try:  # held by a running job: read what it has flushed
-            f = h5py.File(path, "r", locking=False)
-        except OSError as err2:
-            raise ResultsError(f"{path}: cannot be opened: {err2}") from None
+        raise ResultsError(f"{path}: cannot be opened: {' '.join(str(err).split())}") from None
     try:
         fmt = _scalar(f.attrs.get("format", None))
         if fmt != FORMAT:
@@ -117,6 +113,47 @@ def open_results(path):
         f.close()
         raise
     return f
+
+
+def open_committed(path):
+    """An HDF5 file as it stood at its writer's last commit, read-only, the file untouched.
+
+    A results file written step by step has a rollback journal beside it while a step is
+    being written, or after its writer was killed in the middle of one
+    (:mod:`thinfilm.results.journal`); it is then read as the journal restores it, up to its
+    last finished step. A file locked by a running writer is opened without the lock (what
+    it has committed so far; a step being written meanwhile may make the read fail).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    h5py.File
+        Open read-only; the caller closes it.
+
+    Raises
+    ------
+    OSError
+        HDF5 cannot open it.
+    """
+    path = Path(path)
+    if journal_path(path).exists():
+        view = RolledBack(path)
+        try:
+            f = h5py.File(view, "r")
+        except BaseException:
+            view.close()
+            raise
+        f._thinfilm_view = view  # h5py holds no reference: the view must live as long as the file
+        return f
+    try:
+        return h5py.File(path, "r")
+    except OSError as err:
+        if "lock" not in str(err).lower():
+            raise
+        return h5py.File(path, "r", locking=False)  # held by a running job: what it has committed
 
 
 def finished_steps(f):

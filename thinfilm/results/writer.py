@@ -9,7 +9,8 @@ driven by the engine, whatever its kind::
                        numpy_version, numba_version, h5py_version, created (UTC, ISO 8601);
                        extended (JSON, if a resumed run extended the loads: thinfilm.resume);
                        threads (JSON: the setting, the cores, OpenBLAS's and Numba's pool;
-                       thinfilm.threads)
+                       thinfilm.threads); inputs (JSON: the SHA-256 of each file the scene
+                       reads, by scene key: thinfilm.resume.input_digests)
     /parameters        attrs: the kind's parameters (t_max and steps always)
     /<group>           attrs only, one group per table of the kind's choosing (e.g. /material)
     /grid or /mesh     the discretization (thinfilm.discretization)
@@ -25,8 +26,13 @@ driven by the engine, whatever its kind::
 
 ``docs/results.md`` describes it for users. A backtrack to step k truncates every per-step
 dataset to k steps before step k is rewritten, so the file always holds the current evolution
-up to its last finished step; files are flushed after every step, so a run that is killed
-leaves a valid file whose finished steps can be read and resumed.
+up to its last finished step.
+
+The file is made whole under a temporary name and renamed into place, then written step by
+step through a rollback journal (:mod:`thinfilm.results.journal`): each finished step is
+flushed and committed, and a process killed at any instant leaves a file that reads (and
+resumes) as it stood at the last commit, so a kill costs at most the step in flight
+(``docs/results.md#stopping-and-resuming``).
 """
 
 from __future__ import annotations
@@ -41,12 +47,13 @@ import numba
 import numpy as np
 
 from thinfilm import __version__
-from thinfilm.results.reader import FORMAT, FORMAT_VERSION, attrs_dict, finished_steps
-from thinfilm.resume import ResumeError, check_resume
+from thinfilm.results.journal import JournaledFile, JournalError, journal_path
+from thinfilm.results.reader import FORMAT, FORMAT_VERSION, attrs_dict, finished_steps, open_committed
+from thinfilm.resume import INPUTS_ATTRIBUTE, ResumeError, check_inputs, check_resume
 from thinfilm.threads import threads_summary
 
-__all__ = ["ResumeError", "ResultsWriter", "STEP_FIELDS", "INTEGER_STEP_FIELDS", "root_attributes",
-           "write_json", "write_summary"]
+__all__ = ["ResumeError", "ResultsWriter", "check_stored_inputs", "STEP_FIELDS", "INTEGER_STEP_FIELDS",
+           "root_attributes", "write_json", "write_summary"]
 
 #: Per-step records of an engine run, in /steps (names of thinfilm.engine.records.StepRecord).
 STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_solves_skipped",
@@ -85,8 +92,34 @@ def write_json(path, content, indent=1):
     return path
 
 
+def check_stored_inputs(path, digests):
+    """Refuse to resume ``path`` if the scene's input files differ from those stored in it
+    (:func:`thinfilm.resume.check_inputs`); read-only, on the file as of its last commit.
+
+    Parameters
+    ----------
+    path : Path
+        The results file.
+    digests : dict
+        :func:`thinfilm.resume.input_digests` of the resumed scene.
+
+    Raises
+    ------
+    ResumeError
+    """
+    if not digests:
+        return
+    try:
+        f = open_committed(path)
+    except OSError as err:
+        raise ResumeError(f"{path} cannot be read back to resume it ({' '.join(str(err).split())}); run with"
+                          " --force to start over") from None
+    with f:
+        check_inputs(path, attrs_dict(f).get(INPUTS_ATTRIBUTE), digests)
+
+
 class ResultsWriter:
-    """``results.h5`` of a run driven by the engine, written and flushed step by step.
+    """``results.h5`` of a run driven by the engine, written and committed step by step.
 
     Parameters
     ----------
@@ -115,10 +148,14 @@ class ResultsWriter:
         ``{group name: attributes}``, written as attribute-only groups (e.g. ``material``).
     resume : bool
         Continue an existing file written by the same scene, or by one that the scene extends
-        (:func:`thinfilm.resume.check_resume`, checked before the file is opened for writing:
-        a refused scene leaves it as it was). The root's scene attributes and ``/parameters``
-        then take the new scene's, and an extension is recorded in the root attribute
-        ``extended``.
+        (:func:`thinfilm.resume.check_resume`), from the same input files
+        (:func:`thinfilm.resume.check_inputs`), on as many nodes; all checked on the file as
+        it stood at its last commit before it is opened for writing, so a refused scene leaves
+        it as it was. The root's scene attributes and ``/parameters`` then take the new
+        scene's, and an extension is recorded in the root attribute ``extended``.
+    inputs : dict, optional
+        The SHA-256 of the files the scene reads (:func:`thinfilm.resume.input_digests`),
+        stored in the root attribute ``inputs`` (JSON).
 
     Attributes
     ----------
@@ -127,51 +164,94 @@ class ResultsWriter:
     """
 
     def __init__(self, path, scene, parameters, discretization, *, components=None, observables=(),
-                 constant=None, groups=None, resume=False, sizes=None):
+                 constant=None, groups=None, resume=False, sizes=None, inputs=None):
         self.path = Path(path)
+        self.file = None
         self.observables = tuple(observables)
         self.step_fields = STEP_FIELDS + self.observables
         constant = constant or {}
         self.continuation = None
+        self.inputs = dict(inputs or {})
         if resume:
-            with h5py.File(self.path, "r") as f:  # read-only: a refused resume leaves the file as it was
+            # every check on the file as it stood at its last commit, read-only: a refused
+            # resume leaves the file (and a killed writer's journal) as they were
+            try:
+                f = open_committed(self.path)
+            except OSError as err:
+                raise ResumeError(f"{self.path} cannot be read back to resume it ({' '.join(str(err).split())});"
+                                  " run with --force to start over") from None
+            with f:
                 self.continuation = check_resume(self.path, attrs_dict(f), scene)
+                check_inputs(self.path, attrs_dict(f).get(INPUTS_ATTRIBUTE), self.inputs)
+                stored = f["fields/alpha"].shape[1] if "fields/alpha" in f else None
+                if stored is not None and stored != (sizes or {}).get("alpha", discretization.n_nodes):
+                    raise ResumeError(f"{self.path} was written on {stored} nodes, the scene has"
+                                      f" {discretization.n_nodes}; it cannot be resumed (run with --force to start"
+                                      " over)")
                 for name, values in constant.items():
                     if not np.array_equal(f["fields"][name][()], values):
                         raise ResumeError(f"{self.path}: this installation computes another {name} field than"
                                           " the stored one (numpy's random generator changed?); it cannot be"
                                           " resumed (run with --force)")
-            self.file = h5py.File(self.path, "r+")
-            self._continue_with(scene, parameters)
-            n = self.trim()  # a step whose write was cut short is not finished
-            for name in self.step_fields:
-                if name not in self.file["steps"]:   # written before the record existed
-                    self._create_step_dataset(self.file["steps"], name, n)
-            self.file.flush()
+            self._open()  # rolls back a step a killed writer left half written
+            try:
+                self._continue_with(scene, parameters)
+                n = self.trim()  # a step whose write was cut short is not finished
+                for name in self.step_fields:
+                    if name not in self.file["steps"]:   # written before the record existed
+                        self._create_step_dataset(self.file["steps"], name, n)
+                self._commit()
+            except BaseException:
+                self.journaled.failed = True  # not committed: the next opening undoes it all
+                self.close()
+                raise
             return
-        self.file = h5py.File(self.path, "w")
-        f = self.file
-        f.attrs.update(root_attributes(scene))
-        f.create_group("parameters").attrs.update(parameters)
-        for name, attrs in (groups or {}).items():
-            f.create_group(name).attrs.update(attrs)
-        discretization.write(f)
-        steps = f.create_group("steps")
-        for name in self.step_fields:
-            self._create_step_dataset(steps, name, 0)
-        fields = f.create_group("fields")
-        n_nodes = discretization.n_nodes
-        for name in ("u", "alpha"):
-            c = (components or {}).get(name, 1)
-            n = (sizes or {}).get(name, n_nodes * c)
-            ds = fields.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype=np.float64,
-                                       chunks=(1, min(n, 1 << 20)))
-            if c > 1:
-                ds.attrs["components"] = c
-        for name, values in constant.items():
-            ds = fields.create_dataset(name, data=np.asarray(values, dtype=np.float64))
-            ds.attrs["per_step"] = False
-        f.flush()
+        # made whole under a temporary name, then renamed: never a file that cannot be read
+        partial = _atomic_path(self.path)
+        with h5py.File(partial, "w") as f:
+            f.attrs.update(root_attributes(scene))
+            if self.inputs:
+                f.attrs[INPUTS_ATTRIBUTE] = json.dumps(self.inputs)
+            f.create_group("parameters").attrs.update(parameters)
+            for name, attrs in (groups or {}).items():
+                f.create_group(name).attrs.update(attrs)
+            discretization.write(f)
+            steps = f.create_group("steps")
+            for name in self.step_fields:
+                self._create_step_dataset(steps, name, 0)
+            fields = f.create_group("fields")
+            n_nodes = discretization.n_nodes
+            for name in ("u", "alpha"):
+                c = (components or {}).get(name, 1)
+                n = (sizes or {}).get(name, n_nodes * c)
+                ds = fields.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype=np.float64,
+                                           chunks=(1, min(n, 1 << 20)))
+                if c > 1:
+                    ds.attrs["components"] = c
+            for name, values in constant.items():
+                ds = fields.create_dataset(name, data=np.asarray(values, dtype=np.float64))
+                ds.attrs["per_step"] = False
+        # a journal left by an earlier run of this directory belongs to the file replaced
+        journal_path(self.path).unlink(missing_ok=True)
+        os.replace(partial, self.path)
+        self._open()
+
+    def _open(self):
+        """Open the file for writing through its rollback journal."""
+        try:
+            self.journaled = JournaledFile(self.path)
+        except JournalError as err:
+            raise ResumeError(f"{err}; it cannot be resumed now") from None
+        try:
+            self.file = h5py.File(self.journaled, "r+")
+        except BaseException:
+            self.journaled.close()
+            raise
+
+    def _commit(self):
+        """Flush and commit: what the file holds now is what a kill from here on returns to."""
+        self.file.flush()
+        self.journaled.commit()
 
     def _continue_with(self, scene, parameters):
         """The resumed file takes the new scene: its text, source and overrides at the root,
@@ -186,6 +266,8 @@ class ResultsWriter:
                             "date": datetime.now(timezone.utc).isoformat(timespec="seconds")})
             f.attrs["extended"] = json.dumps(history)
         f.attrs["scene"], f.attrs["scene_source"] = scene.text, scene.source
+        if self.inputs:  # a file written before the digests were stored gets them
+            f.attrs[INPUTS_ATTRIBUTE] = json.dumps(self.inputs)
         if getattr(scene, "overrides", None):
             f.attrs["scene_overrides"] = scene.overrides
         elif "scene_overrides" in f.attrs:
@@ -227,12 +309,12 @@ class ResultsWriter:
             ds = f["steps"][name]
             ds.resize((k + 1,))
             ds[k] = observed[name] if name in self.observables else getattr(record, name)
-        f.flush()
+        self._commit()
 
     def write_attribute(self, name, value):
         """Set the root attribute ``name`` (a run's circumstances, such as its threads)."""
         self.file.attrs[name] = value
-        self.file.flush()
+        self._commit()
 
     def trim(self):
         """Cut every per-step dataset to the finished steps (after a write was interrupted);
@@ -244,7 +326,7 @@ class ResultsWriter:
         for name in ("u", "alpha"):
             ds = f["fields"][name]
             ds.resize((n, ds.shape[1]))
-        f.flush()
+        self._commit()
         return n
 
     def history(self, all_alpha=True):
@@ -277,7 +359,17 @@ class ResultsWriter:
         return states
 
     def close(self):
-        self.file.close()
+        """Close the file (HDF5 writes what it still holds) and commit it; if that fails (a
+        write failed before), the journal stays and the next opening returns the file to its
+        last finished step."""
+        if self.file is None:
+            return
+        try:
+            self.file.close()
+            self.journaled.commit()
+        finally:
+            self.file = None
+            self.journaled.close()
 
 
 def write_summary(path, scene, results, extra=None):

@@ -8,8 +8,9 @@ worker), which is what marks the run finished.
 
 It is safe to execute more than once. Dask executes it again when the worker running it dies
 (the scheduler's ``allowed-failures``); the run then continues from its last finished step,
-since ``results.h5`` is flushed step by step and a resumed run gives the same results as an
-uninterrupted one (:mod:`thinfilm.run`). A run whose ``run.json`` says ``done`` is not run again.
+since ``results.h5`` is committed step by step (a kill at any instant leaves it as it was after
+its last finished step: :mod:`thinfilm.results.journal`) and a resumed run gives the same
+results as an uninterrupted one (:mod:`thinfilm.run`). A run whose ``run.json`` says ``done`` is not run again.
 """
 
 from __future__ import annotations
@@ -114,14 +115,14 @@ def run_task(base, overrides, outdir, name):
                 with open_results(outdir) as f:
                     resume = finished_steps(f) > 0
                     record["resumed_after_step"] = finished_steps(f) - 1 if resume else None
-            except (ResultsError, OSError) as err:  # cut in the middle of a write: start over
+            except (ResultsError, OSError) as err:  # damaged otherwise (cut short by a copy): start over
                 warnings.lines.append(f"could not resume ({' '.join(str(err).split())}); started over")
         try:
             run(scene, outdir, resume=resume, threads=1)
         except (ResumeError, OSError) as err:
             if not resume:
                 raise
-            # written by another scene or numpy, or cut in the middle of a write: start over
+            # written by another scene, numpy or input files, or damaged otherwise: start over
             warnings.lines.append(f"could not resume ({' '.join(str(err).split())}); started over")
             record["resumed_after_step"] = None
             run(scene, outdir, resume=False, threads=1)
