@@ -102,8 +102,8 @@ def test_a_killed_worker_s_run_is_retried_and_resumed(client, spacing_scan, tmp_
     assert killed, "no worker was killed"
     assert not psutil.pid_exists(killed["pid"]) or psutil.Process(killed["pid"]).status() == psutil.STATUS_ZOMBIE
     record = read_record(run_dir(out, killed["name"]))
-    # Dask gave the task again to a worker, which continued the run from its last step (or
-    # started it over if the kill cut a write: HDF5 is not crash-proof)
+    # Dask gave the task again to a worker, which continued the run from its last step (a
+    # kill during a write costs that step only: thinfilm/results/journal.py)
     assert record["status"] == "done" and killed["steps"] >= 20
     assert continued_or_started_over(record, killed["steps"] - 2)
     assert counts == {"done": 5} and same_table(read_table(table), reference)
@@ -197,8 +197,9 @@ def test_ctrl_c_stops_the_scan_cleanly_with_status_130(spacing_scan, tmp_path):
 
 
 def test_a_run_cut_in_the_middle_of_a_write_starts_over(tmp_path, capsys):
-    # HDF5 is not crash-proof: a file cut short cannot be resumed. The command says so; a
-    # scan's task starts the run over, to the same numbers.
+    # A file damaged other than by a kill (cut short by a copy: the journal cannot mend that)
+    # cannot be resumed. The command says so; a scan's task starts the run over, to the same
+    # numbers.
     from thinfilm.scan.task import run_task
 
     base = CASES / "fig2_5.toml"
