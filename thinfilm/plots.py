@@ -46,6 +46,9 @@ from thinfilm.results.reader import Results, ResultsError, open_results  # noqa:
 ALPHA_CMAP = "magma_r"
 #: Deflection: diverging about u = 0, so that its sign reads at a glance.
 U_CMAP = "RdBu_r"
+#: A field whose values of one sign reach less than this fraction of its extreme of the other
+#: counts as one-signed (:func:`colour_range`).
+ONE_SIGNED = 0.02
 #: The two halves of :data:`U_CMAP`, for a field that is never positive or never negative:
 #: blue to white and white to red, so one colour means one sign in every figure.
 U_HALF_CMAPS = (matplotlib.colors.LinearSegmentedColormap.from_list(
@@ -219,8 +222,9 @@ def _abscissa(d):
 def colour_range(field, values):
     """Shared colour (or y) range of a figure and its colour map: [0, 1] for damage; for u,
     symmetric about 0 with a diverging map where it takes both signs, and from 0 to its
-    extreme with the matching half of that map where it keeps one sign (a film pressed down
-    by an indenter is never deflected up: half a symmetric scale would stay unused)."""
+    extreme with the matching half of that map where it keeps one sign, up to
+    :data:`ONE_SIGNED` of it (a film pressed down by an indenter: half a symmetric scale
+    would stay unused)."""
     if field == "alpha":
         return 0.0, 1.0, ALPHA_CMAP
     values = np.asarray(values, dtype=float)
@@ -229,9 +233,11 @@ def colour_range(field, values):
     hi = float(finite.max()) if finite.size else 0.0
     if lo == hi == 0.0:
         return -1.0, 1.0, U_CMAP  # an undeformed film still needs a scale
-    if lo >= 0.0:
+    # one-signed up to a ripple: an indented film rises by 0.2-0.6 % of its depth beyond the
+    # contact, invisible on either scale; it is drawn at 0 (white) on the half scale
+    if lo >= -ONE_SIGNED * hi:
         return 0.0, hi, U_HALF_CMAPS[1]
-    if hi <= 0.0:
+    if hi <= -ONE_SIGNED * lo:
         return lo, 0.0, U_HALF_CMAPS[0]
     m = max(-lo, hi)
     return -m, m, U_CMAP

@@ -18,6 +18,9 @@ def test_a_one_signed_deflection_gets_half_the_diverging_scale():
     assert colour_range("u", np.array([[-2.0, -0.5, 0.0]])) == (-2.0, 0.0, U_HALF_CMAPS[0])
     assert colour_range("u", np.array([[0.0, 3.0]])) == (0.0, 3.0, U_HALF_CMAPS[1])
     assert colour_range("u", np.array([[-1.0, 3.0]])) == (-3.0, 3.0, U_CMAP)
+    # a ripple of the other sign below 2 % of the extreme: still one-signed (the indented film)
+    assert colour_range("u", np.array([[-0.3, 0.0006]])) == (-0.3, 0.0, U_HALF_CMAPS[0])
+    assert colour_range("u", np.array([[-0.3, 0.01]])) == (-0.3, 0.3, U_CMAP)
     assert colour_range("u", np.zeros((2, 3))) == (-1.0, 1.0, U_CMAP)
     # the halves are the diverging map's own colours: white at 0 in both
     white = plt.get_cmap(U_CMAP)(0.5)
