@@ -394,7 +394,7 @@ class Bar:
         """
         K = self._assemble_stiffness(self.E * self.element_stiffness(alpha) / self.h)
         e = np.arange(self.n)
-        half = 0.5 * self.E * np.diff(u) / self.h               # dc_i/du_{e+1} of each element's two nodes
+        half = 0.5 * self.E * np.diff(u) / self.h               # E u'_e / 2: dc_i/du_{e+1} = -dc_i/du_e, i in e
         dg = -2.0 * (1.0 - np.asarray(alpha, dtype=np.float64))  # g'(alpha)
         rows = np.concatenate([e, e, e + 1, e + 1])
         cols = np.concatenate([e, e + 1, e, e + 1])
