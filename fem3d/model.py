@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fem3d.derivatives import cross_block
 from fem3d.elements.p1 import P1Space
 from fem3d.mesh import Mesh
 from thinfilm.scene import SceneError
@@ -270,3 +271,56 @@ class FemModel:
         """The reaction along the prescribed motion of each loaded group: ``{group: force}``."""
         reactions = self.elasticity.reactions(alpha, u, self.loads.force_at(t))
         return {group: float(weights @ reactions[dofs]) for group, (dofs, weights) in self.loads.loaded.items()}
+
+    # --- the optional EnergyDerivatives hook (docs/model.md#second-order-information) --------
+    def free_u(self, u):
+        """The free dofs of the full displacement ``u`` (shape ``(n_dofs,)``), shape ``(n_free,)``.
+
+        :class:`thinfilm.engine.protocol.EnergyDerivatives`, as the three methods below.
+        """
+        return np.asarray(u, dtype=np.float64)[self.elasticity.free].copy()
+
+    def u_from_free(self, u_free, t):
+        """The full displacement, shape ``(n_dofs,)``, from its free dofs (shape ``(n_free,)``),
+        the constrained ones at their prescribed values at load ``t``."""
+        return self.elasticity.expand(u_free, self.loads.values_at(t))
+
+    def _switch(self, u):
+        return None if self.elasticity.split == "none" else self.elasticity.tension(u)
+
+    def energy_gradient(self, u, alpha, t):
+        """``(g_u, g_alpha)``: ``(K(alpha) u - f(t))`` on the free dofs, shape ``(n_free,)``,
+        and ``A alpha - b`` of :meth:`damage_problem`, shape ``(n_alpha,)``.
+
+        With a split ``K`` is that of ``u``'s own switch (the true internal force, whose
+        gradient is continuous for ``"amor"``; for ``"positive"`` the energy jumps across the
+        switch and this is the gradient of the piece ``u`` lies in). On fixed damage nodes
+        ``g_alpha`` is that of the damage problem (rows of the identity, ``b = -1``), not the
+        energy's. Rewrites the shared values of ``elasticity.matrix`` (as :meth:`solve_u` does
+        before each solve).
+        """
+        el = self.elasticity
+        u = np.asarray(u, dtype=np.float64)
+        tension = self._switch(u)
+        K = el.matrix(alpha, tension=tension)
+        g_u = K @ u[el.free] - el.rhs(alpha, u[el.constrained], self.loads.force_at(t), tension=tension)
+        A, b = self.damage_problem(u, t)
+        return g_u, A @ np.asarray(alpha, dtype=np.float64) - b
+
+    def hessian_blocks(self, u, alpha, t):
+        """``(K_uu, K_ua, K_aa)``, fresh sparse matrices.
+
+        ``K_uu``: :meth:`fem3d.elasticity.Elasticity.matrix` at ``alpha`` (``u``'s own switch
+        with a split), shape ``(n_free, n_free)``; ``K_ua``: :func:`fem3d.derivatives.cross_block`,
+        shape ``(n_free, n_alpha)``; ``K_aa``: the ``A`` of :meth:`damage_problem`, shape
+        ``(n_alpha, n_alpha)``. With ``"amor"`` or ``"positive"`` the energy is piecewise
+        quadratic in ``u``: these are its Hessian's blocks away from the switch surfaces
+        (a point with ``tr e = 0``), where it is not defined.
+        """
+        el = self.elasticity
+        u = np.asarray(u, dtype=np.float64)
+        tension = self._switch(u)
+        K_uu = el.matrix(alpha, tension=tension).copy()
+        K_ua = cross_block(el, u, alpha, tension=tension, fixed_nodes=self.damage.fixed_nodes)
+        A, _ = self.damage_problem(u, t)
+        return K_uu, K_ua, A.copy()

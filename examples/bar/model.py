@@ -316,3 +316,89 @@ class Bar:
             Empty.
         """
         return []
+
+    # -- the optional EnergyDerivatives hook ----------------------------------------------
+    def free_u(self, u):
+        """The free dofs of ``u``: the inner nodes ``1 .. n - 1``.
+
+        The optional :class:`thinfilm.engine.protocol.EnergyDerivatives` hook (as the three
+        methods below).
+
+        Parameters
+        ----------
+        u : ndarray, shape (n + 1,)
+
+        Returns
+        -------
+        ndarray, shape (n - 1,)
+        """
+        return np.asarray(u, dtype=np.float64)[1:-1].copy()
+
+    def u_from_free(self, u_free, t):
+        """The full displacement with ``u_0 = 0`` and ``u_n = t``.
+
+        Parameters
+        ----------
+        u_free : ndarray, shape (n - 1,)
+        t : float
+
+        Returns
+        -------
+        ndarray, shape (n + 1,)
+        """
+        u = np.zeros(self.n + 1)
+        u[1:-1] = u_free
+        u[-1] = t
+        return u
+
+    def energy_gradient(self, u, alpha, t):
+        """``(dE/du_free, dE/dalpha)`` at ``(u, alpha)``.
+
+        ``dE/du = K(alpha) u`` on the inner nodes (``K`` the stiffness of :meth:`solve_u`);
+        ``dE/dalpha = A alpha - b`` with ``(A, b)`` of :meth:`damage_problem` (the energy is
+        quadratic in ``alpha``).
+
+        Parameters
+        ----------
+        u, alpha : ndarray, shape (n + 1,)
+        t : float
+
+        Returns
+        -------
+        g_u : ndarray, shape (n - 1,)
+        g_alpha : ndarray, shape (n + 1,)
+        """
+        K = self._assemble_stiffness(self.E * self.element_stiffness(alpha) / self.h)
+        A, b = self.damage_problem(u, t)
+        return (K @ u)[1:-1], A @ alpha - b
+
+    def hessian_blocks(self, u, alpha, t):
+        """``(K_uu, K_ua, K_aa)``: the second derivatives of the energy.
+
+        ``K_uu`` is the inner block of :meth:`solve_u`'s stiffness, ``K_aa`` the ``A`` of
+        :meth:`damage_problem`, and, with ``P = sum_i c_i(u) g(alpha_i)``,
+        ``K_ua[m, i] = g'(alpha_i) dc_i/du_m``, ``dc_i/du = sum_{e ni i} E u'_e / 2
+        (delta_{e+1} - delta_e)`` (element ``e = (e, e + 1)``): each element couples its two
+        nodes' displacements with its two nodes' damage.
+
+        Parameters
+        ----------
+        u, alpha : ndarray, shape (n + 1,)
+        t : float
+
+        Returns
+        -------
+        K_uu : scipy.sparse.csr_matrix, shape (n - 1, n - 1)
+        K_ua : scipy.sparse.csr_matrix, shape (n - 1, n + 1)
+        K_aa : scipy.sparse.csr_matrix, shape (n + 1, n + 1)
+        """
+        K = self._assemble_stiffness(self.E * self.element_stiffness(alpha) / self.h)
+        e = np.arange(self.n)
+        half = 0.5 * self.E * np.diff(u) / self.h               # E u'_e / 2: dc_i/du_{e+1} = -dc_i/du_e, i in e
+        dg = -2.0 * (1.0 - np.asarray(alpha, dtype=np.float64))  # g'(alpha)
+        rows = np.concatenate([e, e, e + 1, e + 1])
+        cols = np.concatenate([e, e + 1, e, e + 1])
+        vals = np.concatenate([-half * dg[e], -half * dg[e + 1], half * dg[e], half * dg[e + 1]])
+        K_ua = sp.csr_matrix((vals, (rows, cols)), shape=(self.n + 1, self.n + 1))[1:-1]
+        A, _ = self.damage_problem(u, t)
+        return K[1:-1, 1:-1].tocsr(), K_ua, A.tocsr().copy()

@@ -5,14 +5,17 @@ any object with the attributes and methods of :class:`FractureModel`; the finite
 film (:class:`thinfilm.plate.model.PlateModel`) is one, a finite-element solid another, and
 ``examples/bar/model.py`` the smallest, a 1D bar written to be copied (``examples/README.md``).
 
-Four hooks are optional, each a protocol of its own that the engine recognizes with
+Five hooks are optional, each a protocol of its own that the engine recognizes with
 ``isinstance`` (they are ``runtime_checkable``):
 
 * :class:`AffineLoad`, for backtracking under a load with a constant part (not proportional);
 * :class:`TrialStates`, needed by the nucleation search;
 * :class:`StabilityModes`, needed by the stability check;
 * :class:`DamageProjection`, for a model whose damage is restricted to a subset of fields
-  (the symmetric fields of a film restricted to a mirror group).
+  (the symmetric fields of a film restricted to a mirror group);
+* :class:`EnergyDerivatives`, the gradient and the Hessian blocks of the energy in
+  ``(u, alpha)`` on the free dofs (for a Newton method on both fields; the engine does not
+  use it yet).
 
 A model's ``solve_u`` that fails raises :class:`thinfilm.solvers.errors.SolverError` (every
 solver of the toolkit does); the engine turns it into an
@@ -25,7 +28,7 @@ from typing import Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
-__all__ = ["FractureModel", "AffineLoad", "TrialStates", "StabilityModes", "DamageProjection"]
+__all__ = ["FractureModel", "AffineLoad", "TrialStates", "StabilityModes", "DamageProjection", "EnergyDerivatives"]
 
 
 @runtime_checkable
@@ -104,3 +107,38 @@ class DamageProjection(Protocol):
     def project_alpha(self, alpha: np.ndarray) -> np.ndarray:
         """The admissible field the engine keeps after an alpha-solve and at the start of a
         step. It must keep a field that is above an admissible bound above it."""
+
+
+@runtime_checkable
+class EnergyDerivatives(Protocol):
+    """First and second derivatives of ``E(u, alpha) = P + S`` in both fields.
+
+    Convention: every method takes the model's full displacement ``u`` (what ``solve_u``
+    returns, shape ``(n_u,)``) whose constrained dofs hold their prescribed values at the
+    load ``t``; the derivatives in ``u`` are taken with respect to the free dofs only,
+    ``free_u(u)``, shape ``(n_u_free,)``, the constrained ones held fixed. The map back is
+    ``u_from_free(free_u(u), t) == u``. In ``alpha`` they are taken with respect to all
+    ``n_alpha`` damage unknowns (the bounds ``lower <= alpha <= 1`` are the solver's).
+
+    ``E`` is quadratic in ``alpha`` at fixed ``u`` (AT1, AT2), so ``K_aa`` is the ``A`` of
+    ``damage_problem(u, t)`` and ``g_alpha = A alpha - b``; ``K_uu`` is the matrix
+    ``solve_u`` factorizes at ``alpha`` (on the free dofs). Where a model's energy is only
+    piecewise quadratic in ``u`` (a unilateral split) the blocks are those of the piece
+    ``u`` lies in, the Hessian away from the switch surfaces.
+    """
+
+    def free_u(self, u: np.ndarray) -> np.ndarray:
+        """The free dofs of the full displacement ``u``: shape ``(n_u,)`` -> ``(n_u_free,)``."""
+
+    def u_from_free(self, u_free: np.ndarray, t: float) -> np.ndarray:
+        """The full displacement, shape ``(n_u,)``, from its free dofs, shape ``(n_u_free,)``,
+        with the constrained dofs at their prescribed values at load ``t``."""
+
+    def energy_gradient(self, u: np.ndarray, alpha: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(g_u, g_alpha)``: ``dE/du_free``, shape ``(n_u_free,)``, and ``dE/dalpha``, shape
+        ``(n_alpha,)``, at the state ``(u, alpha)`` and load ``t``."""
+
+    def hessian_blocks(self, u: np.ndarray, alpha: np.ndarray, t: float) -> tuple:
+        """``(K_uu, K_ua, K_aa)``, sparse: ``d2E/du_free^2``, shape ``(n_u_free, n_u_free)``;
+        ``d2E/du_free dalpha``, shape ``(n_u_free, n_alpha)``; ``d2E/dalpha^2``, shape
+        ``(n_alpha, n_alpha)``. Fresh matrices, owned by the caller."""

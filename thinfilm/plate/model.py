@@ -14,6 +14,7 @@ from typing import Callable
 import numpy as np
 from scipy import ndimage
 
+from thinfilm.plate.derivatives import cross_block
 from thinfilm.plate.energy import load_force
 from thinfilm.plate.grid import Grid
 from thinfilm.solvers.linear import DirectSolver, make_solver
@@ -270,3 +271,49 @@ class PlateModel:
             trial = np.maximum(alpha, crack_profile(distance, self.eta, self.at))
             trials.append(trial if self.symmetry is None else self.symmetry.maximum(trial))
         return trials
+
+    # --- the optional EnergyDerivatives hook (docs/model.md#second-order-information) --------
+    def _no_symmetry(self, what):
+        if self.symmetry is not None:
+            raise NotImplementedError(f"{what}: not for a film restricted to symmetric fields (the blocks would"
+                                      " have to be reduced to the orbits of the mirror group)")
+
+    def free_u(self, u):
+        """The free (not clamped) nodes' displacement, shape ``(n_free,)``, of ``u``, shape
+        ``(n_nodes,)``.
+
+        :class:`thinfilm.engine.protocol.EnergyDerivatives`, as the three methods below; a
+        model with a symmetry raises NotImplementedError in each.
+        """
+        self._no_symmetry("free_u")
+        return np.array(self.grid.nodal("u", u)[self.plate.free_nodes])
+
+    def u_from_free(self, u_free, t):
+        """The full displacement, shape ``(n_nodes,)``: ``u_free`` (shape ``(n_free,)``) on the
+        free nodes, 0 on the clamped ones (whatever ``t``)."""
+        self._no_symmetry("u_from_free")
+        u = np.zeros(self.grid.n_nodes)
+        u[self.plate.free_nodes] = u_free
+        return u
+
+    def energy_gradient(self, u, alpha, t):
+        """``(g_u, g_alpha)``: ``K(alpha) u - winkler omega w_t`` on the free nodes, shape
+        ``(n_free,)``, and ``A alpha - b`` of :meth:`damage_problem`, shape ``(n_nodes,)``
+        (clamped nodes count with ``u = 0``, as in the energy)."""
+        self._no_symmetry("energy_gradient")
+        u = self.plate.constrain(u)
+        g_u = self.plate.apply(alpha, u) - self.plate.rhs(self.load(t))
+        A, b = self.damage_problem(u, t)
+        return g_u[self.plate.free_nodes], A @ self.grid.nodal("alpha", alpha) - b
+
+    def hessian_blocks(self, u, alpha, t):
+        """``(K_uu, K_ua, K_aa)``, fresh sparse matrices: the u-matrix at ``alpha`` on the free
+        nodes, shape ``(n_free, n_free)``; :func:`thinfilm.plate.derivatives.cross_block`,
+        shape ``(n_free, n_nodes)``; the ``A`` of :meth:`damage_problem`, shape
+        ``(n_nodes, n_nodes)``."""
+        self._no_symmetry("hessian_blocks")
+        free = self.plate.free_nodes
+        K = self.plate.matrix(alpha)
+        K_uu = K[free][:, free] if free.size < self.grid.n_nodes else K.copy()
+        A, _ = self.damage_problem(self.plate.constrain(u), t)
+        return K_uu.tocsr(), cross_block(self.plate, u, alpha), A.copy()
