@@ -17,7 +17,7 @@ import scipy.sparse as sp
 
 from thinfilm.solvers.linear.base import LinearSolverError, Pattern
 
-__all__ = ["PardisoBackend", "pardiso_available", "pardiso_reproducible", "MKL_CBWR_ALL",
+__all__ = ["PardisoBackend", "pardiso_available", "pardiso_reproducible", "new_solver", "MKL_CBWR_ALL",
            "MKL_CBWR_BRANCH_OFF", "MKL_CBWR_AUTO"]
 
 
@@ -27,11 +27,29 @@ def pardiso_available() -> bool:
     try:
         import pypardiso  # noqa: F401
 
-        solver = pypardiso.PyPardisoSolver(mtype=2)
+        solver = new_solver()
     except Exception:  # ImportError, or the MKL runtime library not found
         return False
     _reproducible(solver.libmkl)
     return True
+
+
+def new_solver():
+    """A ``pypardiso.PyPardisoSolver`` for SPD matrices.
+
+    pypardiso looks for MKL's runtime library each time it makes a solver, searching the whole
+    Python installation when the system's loader does not know it (0.3-0.6 s each, several
+    times per run); its variable ``PYPARDISO_MKL_RT`` skips the search. The first solver's
+    library is therefore named there (unless the user already set it), for the rest of the
+    process and the processes it starts (a scan's workers).
+    """
+    import pypardiso
+
+    solver = pypardiso.PyPardisoSolver(mtype=2)
+    name = getattr(solver.libmkl, "_name", None)
+    if name and "PYPARDISO_MKL_RT" not in os.environ:
+        os.environ["PYPARDISO_MKL_RT"] = name
+    return solver
 
 
 #: MKL's conditional numerical reproducibility branches (``mkl_service.h``): ``MKL_CBWR_Get``
@@ -110,7 +128,7 @@ class PardisoBackend:
         import pypardiso
 
         self._err = pypardiso.pardiso_wrapper.PyPardisoError
-        self.ps = pypardiso.PyPardisoSolver(mtype=2)
+        self.ps = new_solver()
         _reproducible(self.ps.libmkl)  # before PARDISO's first call: MKL fixes its branch then
         self.ps.set_iparm(12, 0)  # CSR input, no transposed solve
         self.single = precision == "single"
