@@ -28,10 +28,9 @@ import numpy as np
 import scipy.sparse as sp
 
 from fem3d import kernels
-from fem3d.mesh import index_array, mesh_geometry
-from fem3d.mesh import Mesh
+from fem3d.mesh import Mesh, mesh_geometry
 from thinfilm.damage import DamageOperator
-from thinfilm.options import real_in_range
+from thinfilm.options import index_array, real_in_range
 
 __all__ = ["P1Damage"]
 

@@ -61,8 +61,8 @@ import scipy.sparse as sp
 from fem3d import kernels, split as splits
 from fem3d.elements.p1 import P1Space
 from fem3d.elements.space import Space
-from fem3d.mesh import Mesh, index_array
-from thinfilm.options import real_in_range
+from fem3d.mesh import Mesh
+from thinfilm.options import index_array, real_in_range
 
 __all__ = ["Elasticity", "lame_parameters"]
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Mesh", "index_array", "mesh_geometry"]
+__all__ = ["Mesh", "mesh_geometry"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,26 +97,6 @@ class Mesh:
         from thinfilm.discretization import SimplexMesh
 
         return SimplexMesh(self.points, self.cells)
-
-
-def index_array(name, value, size) -> np.ndarray:
-    """``value`` as a strictly increasing int64 array of indices in ``[0, size)``.
-
-    Raises
-    ------
-    ValueError
-        Naming ``name``, if ``value`` is not a 1D integer array, has an entry outside
-        ``[0, size)``, or is not sorted without repeats.
-    """
-    a = np.asarray(value)
-    if a.ndim != 1 or not (a.size == 0 or np.issubdtype(a.dtype, np.integer)):
-        raise ValueError(f"{name} must be a 1D array of integers, got shape {a.shape} and dtype {a.dtype}")
-    a = a.astype(np.int64)
-    if a.size and (a[0] < 0 or a[-1] >= size):
-        raise ValueError(f"{name} has entries outside [0, {size}): min {a.min()}, max {a.max()}")
-    if np.any(np.diff(a) <= 0):
-        raise ValueError(f"{name} must be sorted without repeats")
-    return a
 
 
 def mesh_geometry(mesh: Mesh):

@@ -142,7 +142,7 @@ def element_sizes(points, cells):
     return _edge_lengths(np.asarray(points, dtype=np.float64), np.asarray(cells, dtype=np.int64)).max(axis=1)
 
 
-def fine_size(points, cells):
+def fine_size(sizes):
     """The mesh's element size where it is finest: the :data:`FINE_PERCENTILE` percentile of
-    :func:`element_sizes` (a length, the mesh's unit)."""
-    return float(np.percentile(element_sizes(points, cells), FINE_PERCENTILE))
+    its cells' sizes ``sizes`` (:func:`element_sizes`; a length, the mesh's unit)."""
+    return float(np.percentile(sizes, FINE_PERCENTILE))

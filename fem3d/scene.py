@@ -466,7 +466,7 @@ def _sizes(source, data, model, geometry):
     if geometry.file is not None:
         mesh, extent = _mesh_file(source, model, geometry)
         cell_sizes = element_sizes(mesh.points, mesh.cells)
-        measured = fine_size(mesh.points, mesh.cells)
+        measured = fine_size(cell_sizes)
         if table.has("h"):
             h = table.number("h", minimum=0)
             if not measured / H_FACTOR <= h <= measured * H_FACTOR:

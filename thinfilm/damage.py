@@ -43,7 +43,7 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
-from thinfilm.options import real_in_range
+from thinfilm.options import index_array, real_in_range
 
 __all__ = ["DamageOperator", "c_m"]
 
@@ -225,16 +225,6 @@ class DamageOperator:
 
 def _fixed_nodes(value, n) -> np.ndarray:
     """``value`` as a read-only, strictly increasing int64 array of nodes in [0, n)."""
-    if value is None:
-        a = np.zeros(0, dtype=np.int64)
-    else:
-        a = np.asarray(value)
-        if a.ndim != 1 or not (a.size == 0 or np.issubdtype(a.dtype, np.integer)):
-            raise ValueError(f"fixed_nodes must be a 1D array of integers, got shape {a.shape} and dtype {a.dtype}")
-        a = a.astype(np.int64)
-        if a.size and (a[0] < 0 or a[-1] >= n):
-            raise ValueError(f"fixed_nodes has entries outside [0, {n}): min {a.min()}, max {a.max()}")
-        if np.any(np.diff(a) <= 0):
-            raise ValueError("fixed_nodes must be sorted without repeats")
+    a = np.zeros(0, dtype=np.int64) if value is None else index_array("fixed_nodes", value, n)
     a.flags.writeable = False
     return a

@@ -22,7 +22,10 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-__all__ = ["OptionError", "Rule", "option", "validate", "scene_keys", "reference_rows", "real_in_range"]
+import numpy as np
+
+__all__ = ["OptionError", "Rule", "option", "validate", "scene_keys", "reference_rows", "real_in_range",
+           "index_array"]
 
 
 class OptionError(ValueError):
@@ -226,3 +229,23 @@ def real_in_range(name, value, low, high, low_open=False, high_open=True):
         raise ValueError(f"{name} = {value!r} outside the allowed range "
                          f"{'(' if low_open else '['}{low}, {high}{')' if high_open else ']'}")
     return v
+
+
+def index_array(name, value, size) -> np.ndarray:
+    """``value`` as a strictly increasing int64 array of indices in ``[0, size)``.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name``, if ``value`` is not a 1D integer array, has an entry outside
+        ``[0, size)``, or is not sorted without repeats.
+    """
+    a = np.asarray(value)
+    if a.ndim != 1 or not (a.size == 0 or np.issubdtype(a.dtype, np.integer)):
+        raise ValueError(f"{name} must be a 1D array of integers, got shape {a.shape} and dtype {a.dtype}")
+    a = a.astype(np.int64)
+    if a.size and (a[0] < 0 or a[-1] >= size):
+        raise ValueError(f"{name} has entries outside [0, {size}): min {a.min()}, max {a.max()}")
+    if np.any(np.diff(a) <= 0):
+        raise ValueError(f"{name} must be sorted without repeats")
+    return a

@@ -44,6 +44,17 @@ def modules():
     return out
 
 
+def absolute(node, name, is_package):
+    """The absolute module an ``ast.ImportFrom`` of module ``name`` imports from (its relative
+    form resolved against ``name``)."""
+    base = node.module or ""
+    if not node.level:
+        return base
+    anchor = name.split(".") if is_package else name.split(".")[:-1]
+    anchor = anchor[: len(anchor) - (node.level - 1)]
+    return ".".join(anchor + ([base] if base else []))
+
+
 def imports(name, path, known):
     """The toolkit's modules that module ``name`` imports (anywhere in its source)."""
     is_package = path.name == "__init__.py"
@@ -52,11 +63,7 @@ def imports(name, path, known):
         if isinstance(node, ast.Import):
             targets = [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                anchor = name.split(".") if is_package else name.split(".")[:-1]
-                anchor = anchor[: len(anchor) - (node.level - 1)]
-                base = ".".join(anchor + ([base] if base else []))
+            base = absolute(node, name, is_package)
             # ``from package import module`` imports the module; ``from module import name``
             # the module itself.
             targets = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in known else base for alias in node.names]
@@ -156,11 +163,7 @@ def imported_names(source, name, is_package=False):
         if isinstance(node, ast.Import):
             out.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                anchor = name.split(".") if is_package else name.split(".")[:-1]
-                anchor = anchor[: len(anchor) - (node.level - 1)]
-                base = ".".join(anchor + ([base] if base else []))
+            base = absolute(node, name, is_package)
             out.add(base)
             out.update(f"{base}.{alias.name}" for alias in node.names)
     return out
@@ -213,11 +216,7 @@ def private_uses(source, name, is_package=False):
                 if alias.name.split(".")[0] in OWN:
                     modules_[alias.asname or alias.name.split(".")[0]] = alias.name
         elif isinstance(node, ast.ImportFrom):
-            base = node.module or ""
-            if node.level:
-                anchor = name.split(".") if is_package else name.split(".")[:-1]
-                anchor = anchor[: len(anchor) - (node.level - 1)]
-                base = ".".join(anchor + ([base] if base else []))
+            base = absolute(node, name, is_package)
             if base.split(".")[0] not in OWN or base == name:
                 continue
             for alias in node.names:

@@ -198,7 +198,28 @@ class _Intervals:
         self.ranges = merged
 
 
-class JournaledFile(io.RawIOBase):
+class _Cursor(io.RawIOBase):
+    """The position of a file object HDF5 reads through (``pos``) over a file of ``size``
+    bytes: what :class:`JournaledFile` and :class:`RolledBack` share."""
+
+    pos = 0
+    size = 0
+
+    def readable(self):
+        return True
+
+    def seekable(self):
+        return True
+
+    def seek(self, offset, whence=os.SEEK_SET):
+        self.pos = {os.SEEK_SET: 0, os.SEEK_CUR: self.pos, os.SEEK_END: self.size}[whence] + offset
+        return self.pos
+
+    def tell(self):
+        return self.pos
+
+
+class JournaledFile(_Cursor):
     """An existing results file opened for reading and writing through a rollback journal.
 
     Rolls back a step a killed writer left (:func:`recover`) and takes an exclusive lock on
@@ -277,21 +298,8 @@ class JournaledFile(io.RawIOBase):
         self.saved = _Intervals()
 
     # -- the file object HDF5 uses -----------------------------------------------------------
-    def readable(self):
-        return True
-
     def writable(self):
         return True
-
-    def seekable(self):
-        return True
-
-    def seek(self, offset, whence=os.SEEK_SET):
-        self.pos = {os.SEEK_SET: 0, os.SEEK_CUR: self.pos, os.SEEK_END: self.size}[whence] + offset
-        return self.pos
-
-    def tell(self):
-        return self.pos
 
     def read(self, n=-1):
         if n is None or n < 0:
@@ -348,7 +356,7 @@ class JournaledFile(io.RawIOBase):
         super().close()
 
 
-class RolledBack(io.RawIOBase):
+class RolledBack(_Cursor):
     """A results file as it was at its last commit, read-only, the file left untouched.
 
     Where a killed (or a running) writer left a journal, reads are patched with the
@@ -369,19 +377,6 @@ class RolledBack(io.RawIOBase):
         else:
             self.size, self.entries = found
         self.pos = 0
-
-    def readable(self):
-        return True
-
-    def seekable(self):
-        return True
-
-    def seek(self, offset, whence=os.SEEK_SET):
-        self.pos = {os.SEEK_SET: 0, os.SEEK_CUR: self.pos, os.SEEK_END: self.size}[whence] + offset
-        return self.pos
-
-    def tell(self):
-        return self.pos
 
     def read(self, n=-1):
         end = self.size if n is None or n < 0 else min(self.pos + n, self.size)
