@@ -12,6 +12,7 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
+import scipy.sparse as sp
 from scipy import ndimage
 
 from thinfilm.plate.derivatives import cross_block
@@ -75,7 +76,8 @@ class PlateModel:
         nodes (``linear_solver`` is then made for the reduced matrix,
         :meth:`reduced_matrix`), the damage is averaged over each orbit after every
         alpha-solve (:meth:`project_alpha`) and every trial crack is inserted with all its
-        mirror images. Fields stay full-size everywhere else.
+        mirror images. Fields stay full-size everywhere else, but for the displacement
+        unknowns of the derivatives (:meth:`free_u`): one per orbit of free nodes.
     toughness_factor : ndarray, shape (n_nodes,), optional
         A film of varying toughness ``toughness * factor`` (:mod:`thinfilm.plate.imperfection`);
         with a symmetry it must be invariant under it.
@@ -102,6 +104,7 @@ class PlateModel:
         self.symmetry = symmetry
         self.last_solve_info = None
         self._stability_solver = None
+        self._derivative_orbits = None   # (free orbits, P_f^T) of the EnergyDerivatives hook
 
     def reduced_matrix(self, alpha):
         """The matrix the linear solver sees: the plate operator at ``alpha``, restricted to
@@ -273,47 +276,116 @@ class PlateModel:
         return trials
 
     # --- the optional EnergyDerivatives hook (docs/model.md#second-order-information) --------
-    def _no_symmetry(self, what):
-        if self.symmetry is not None:
-            raise NotImplementedError(f"{what}: not for a film restricted to symmetric fields (the blocks would"
-                                      " have to be reduced to the orbits of the mirror group)")
+    def _free_orbits(self):
+        """``(free, R)`` of a model with a symmetry: the orbits of free nodes, shape
+        ``(n_free_orbits,)``, and the 0/1 matrix ``R = P_f^T``, shape ``(n_free_orbits,
+        n_free)``, that sums the free nodes' entries over each orbit. Computed once."""
+        if self._derivative_orbits is None:
+            sym = self.symmetry
+            clamped = np.zeros(self.grid.n_nodes)
+            clamped[self.plate.clamped_nodes] = 1.0
+            count = np.bincount(sym.orbit, weights=clamped, minlength=sym.n_orbits)
+            if np.any((count != 0) & (count != sym.orbit_size)):
+                # solve_u would then solve another problem: an orbit mixing clamped and free nodes
+                raise ValueError(f"the clamped edges {self.plate.clamped} are not mapped onto themselves by the"
+                                 f" symmetry {sym.group!r}")
+            free = np.flatnonzero(count == 0)
+            position = np.full(sym.n_orbits, -1, dtype=np.int64)
+            position[free] = np.arange(free.size)
+            nodes = self.plate.free_nodes
+            R = sp.csr_matrix((np.ones(nodes.size), (position[sym.orbit[nodes]], np.arange(nodes.size))),
+                              shape=(free.size, nodes.size))
+            self._derivative_orbits = free, R
+        return self._derivative_orbits
 
     def free_u(self, u):
-        """The free (not clamped) nodes' displacement, shape ``(n_free,)``, of ``u``, shape
-        ``(n_nodes,)``.
+        """The free displacement unknowns of the displacement ``u`` (shape ``(n_nodes,)``).
 
-        :class:`thinfilm.engine.protocol.EnergyDerivatives`, as the three methods below; a
-        model with a symmetry raises NotImplementedError in each.
+        Without a symmetry: the free (not clamped) nodes' values, shape ``(n_free,)``. With a
+        symmetry: the orbit values ``v`` of the symmetric field ``u = P v`` (each orbit's value
+        at its representative) on the orbits of free nodes, shape ``(n_free_orbits,)``: the
+        unknowns of :meth:`solve_u`, whose clamped orbits are decoupled and held at 0 (the
+        clamped edges are mapped onto themselves, so an orbit is all clamped or all free).
+        ``u`` must then be symmetric (as :meth:`solve_u` returns it).
+
+        :class:`thinfilm.engine.protocol.EnergyDerivatives`, as the three methods below; with
+        a symmetry they are the derivatives of the restricted energy ``e(v, alpha) = E(P v, alpha)``.
         """
-        self._no_symmetry("free_u")
-        return np.array(self.grid.nodal("u", u)[self.plate.free_nodes])
+        if self.symmetry is None:
+            return np.array(self.grid.nodal("u", u)[self.plate.free_nodes])
+        free, _ = self._free_orbits()
+        return np.array(self.symmetry.restrict(self.grid.nodal("u", u))[free])
 
     def u_from_free(self, u_free, t):
-        """The full displacement, shape ``(n_nodes,)``: ``u_free`` (shape ``(n_free,)``) on the
-        free nodes, 0 on the clamped ones (whatever ``t``)."""
-        self._no_symmetry("u_from_free")
-        u = np.zeros(self.grid.n_nodes)
-        u[self.plate.free_nodes] = u_free
-        return u
+        """The full displacement, shape ``(n_nodes,)``, 0 on the clamped nodes (whatever
+        ``t``): ``u_free`` (shape ``(n_free,)``) on the free nodes, or with a symmetry the
+        symmetric field ``P v`` of the free orbits' values ``v = u_free``, shape
+        ``(n_free_orbits,)``."""
+        if self.symmetry is None:
+            u = np.zeros(self.grid.n_nodes)
+            u[self.plate.free_nodes] = u_free
+            return u
+        free, _ = self._free_orbits()
+        v = np.zeros(self.symmetry.n_orbits)
+        v[free] = u_free
+        return self.symmetry.expand(v)
 
     def energy_gradient(self, u, alpha, t):
-        """``(g_u, g_alpha)``: ``K(alpha) u - winkler omega w_t`` on the free nodes, shape
-        ``(n_free,)``, and ``A alpha - b`` of :meth:`damage_problem`, shape ``(n_nodes,)``
-        (clamped nodes count with ``u = 0``, as in the energy)."""
-        self._no_symmetry("energy_gradient")
+        """The gradient of the energy in the displacement unknowns and in the damage.
+
+        Parameters
+        ----------
+        u, alpha : ndarray, shape (n_nodes,)
+            Displacement (its clamped nodes count as 0, as in the energy; symmetric if the
+            model has a symmetry) and damage.
+        t : float
+            Load.
+
+        Returns
+        -------
+        g_u : ndarray, shape (n_free,) or (n_free_orbits,)
+            ``K(alpha) u - winkler omega w_t`` on the free nodes, or with a symmetry its orbit
+            sums ``P^T (K(alpha) u - winkler omega w_t)`` on the free orbits.
+        g_alpha : ndarray, shape (n_nodes,)
+            ``A alpha - b`` of :meth:`damage_problem`.
+        """
         u = self.plate.constrain(u)
         g_u = self.plate.apply(alpha, u) - self.plate.rhs(self.load(t))
         A, b = self.damage_problem(u, t)
-        return g_u[self.plate.free_nodes], A @ self.grid.nodal("alpha", alpha) - b
+        g_alpha = A @ self.grid.nodal("alpha", alpha) - b
+        if self.symmetry is None:
+            return g_u[self.plate.free_nodes], g_alpha
+        free, _ = self._free_orbits()
+        return self.symmetry.reduce_vector(g_u)[free], g_alpha
 
     def hessian_blocks(self, u, alpha, t):
-        """``(K_uu, K_ua, K_aa)``, fresh sparse matrices: the u-matrix at ``alpha`` on the free
-        nodes, shape ``(n_free, n_free)``; :func:`thinfilm.plate.derivatives.cross_block`,
-        shape ``(n_free, n_nodes)``; the ``A`` of :meth:`damage_problem`, shape
-        ``(n_nodes, n_nodes)``."""
-        self._no_symmetry("hessian_blocks")
-        free = self.plate.free_nodes
-        K = self.plate.matrix(alpha)
-        K_uu = K[free][:, free] if free.size < self.grid.n_nodes else K.copy()
+        """The Hessian blocks of the energy, fresh sparse matrices.
+
+        Parameters
+        ----------
+        u, alpha : ndarray, shape (n_nodes,)
+            As for :meth:`energy_gradient`.
+        t : float
+
+        Returns
+        -------
+        K_uu : scipy.sparse.csr_matrix, shape (n_free, n_free) or (n_free_orbits, n_free_orbits)
+            The u-matrix at ``alpha`` on the free nodes; with a symmetry :meth:`reduced_matrix`
+            (``P^T K P``, what :meth:`solve_u` factorizes) on the free orbits.
+        K_ua : scipy.sparse.csr_matrix, shape (n_free, n_nodes) or (n_free_orbits, n_nodes)
+            :func:`thinfilm.plate.derivatives.cross_block`; with a symmetry its rows summed
+            over each orbit (``P^T K_ua``). Columns: every node.
+        K_aa : scipy.sparse.csr_matrix, shape (n_nodes, n_nodes)
+            The ``A`` of :meth:`damage_problem` (the damage stays a nodal field).
+        """
         A, _ = self.damage_problem(self.plate.constrain(u), t)
-        return K_uu.tocsr(), cross_block(self.plate, u, alpha), A.copy()
+        K_ua = cross_block(self.plate, u, alpha)
+        if self.symmetry is None:
+            free = self.plate.free_nodes
+            K = self.plate.matrix(alpha)
+            K_uu = K[free][:, free] if free.size < self.grid.n_nodes else K.copy()
+            return K_uu.tocsr(), K_ua, A.copy()
+        free, R = self._free_orbits()
+        K = self.reduced_matrix(alpha)
+        K_uu = K[free][:, free] if free.size < self.symmetry.n_orbits else K
+        return K_uu.tocsr(), (R @ K_ua).tocsr(), A.copy()
