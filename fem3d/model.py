@@ -169,6 +169,9 @@ class FemModel:
         ``Gc`` times the thickness in 2D (the energy of a unit crack length), ``Gc`` in 3D.
     """
 
+    #: Whether ``[solver] nonlinear = "auto"`` uses Newton on this model (docs/speed.md#newton).
+    newton_pays = False
+
     def __init__(self, mesh, elasticity, damage, loads, linear_solver):
         self.mesh, self.elasticity, self.damage, self.loads = mesh, elasticity, damage, loads
         self.proportional = loads.proportional

@@ -130,6 +130,9 @@ class Bar:
         If ``n`` is odd or ``weakness`` is not in (0, 1].
     """
 
+    #: Whether ``[solver] nonlinear = "auto"`` uses Newton on this model (docs/speed.md#newton).
+    newton_pays = False
+
     def __init__(self, L=1.0, E=1.0, Gc=1.0, ell=0.05, n=200, k_res=1e-8, weakness=0.9, band=None):
         if n % 2:
             raise ValueError(f"n = {n}: must be even (the middle of the bar is a node)")

@@ -39,11 +39,16 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from thinfilm.engine.options import AltMinOptions, BacktrackOptions, EngineOptions, SearchOptions, StabilityOptions
-from thinfilm.engine.protocol import AffineLoad, DamageProjection, FractureModel, StabilityModes, TrialStates
+from thinfilm.engine.newton import kkt_residual, newton_minimize
+from thinfilm.engine.options import (AltMinOptions, BacktrackOptions, EngineOptions, NewtonOptions, SearchOptions,
+                                     StabilityOptions)
+from thinfilm.engine.protocol import (AffineLoad, DamageProjection, EnergyDerivatives, FractureModel, StabilityModes,
+                                      TrialStates)
 from thinfilm.engine.records import State, StepRecord
 from thinfilm.solvers.boxqp import solve_box_qp
 from thinfilm.solvers.errors import SolverError
+from thinfilm.solvers.linear.indefinite import IndefiniteSolver
+from thinfilm.solvers.work import WORK
 
 __all__ = ["Engine", "EvolutionError"]
 
@@ -82,19 +87,27 @@ class Engine:
     Parameters
     ----------
     model : FractureModel
-    altmin, backtrack, search, stability : option objects of :mod:`thinfilm.engine.options`,
-        optional (their values are checked when they are made)
+    altmin, backtrack, search, stability, newton : option objects of
+        :mod:`thinfilm.engine.options`, optional (their values are checked when they are made)
 
     Raises
     ------
     ValueError
         If the options ask for what the model cannot do: backtracking with a load that is not
         proportional to ``t``, the search without :class:`TrialStates`, the stability check
-        without :class:`StabilityModes`.
+        without :class:`StabilityModes`, Newton (``newton.method = "newton"``) without
+        :class:`EnergyDerivatives`.
+
+    Attributes
+    ----------
+    uses_newton : bool
+        Whether load steps hand over to Newton (``newton.method`` resolved for this model).
+    newton_solver : thinfilm.solvers.linear.indefinite.IndefiniteSolver or None
+        The factorization of the coupled Newton system, kept across steps.
     """
 
     def __init__(self, model: FractureModel, altmin=AltMinOptions(), backtrack=BacktrackOptions(),
-                 search=SearchOptions(), stability=StabilityOptions()):
+                 search=SearchOptions(), stability=StabilityOptions(), newton=NewtonOptions()):
         if backtrack.kind != "none" and not (model.proportional or isinstance(model, AffineLoad)):
             raise ValueError(f"backtrack.kind = {backtrack.kind!r}: backtracking needs a load proportional to t"
                              " or with a constant part (this load is neither); use kind = \"none\"")
@@ -102,6 +115,16 @@ class Engine:
             raise ValueError("nucleation search asked for a model without trial_states")
         if stability.enabled and not isinstance(model, StabilityModes):
             raise ValueError("stability check asked for a model without stability_modes")
+        derivatives = isinstance(model, EnergyDerivatives)
+        if newton.method == "newton" and not derivatives:
+            raise ValueError("nonlinear = \"newton\" asked for a model without the derivatives of its energy"
+                             " (EnergyDerivatives); use \"altmin\" or \"auto\"")
+        self.newton = newton
+        self.uses_newton = newton.method == "newton" or (newton.method == "auto" and derivatives
+                                                          and model.newton_pays)
+        self._derivatives = derivatives
+        #: The factorization of the coupled Newton system (None without Newton).
+        self.newton_solver = IndefiniteSolver() if self.uses_newton else None
         self.model, self.altmin, self.backtrack, self.search = model, altmin, backtrack, search
         self.stability = stability
         self._projection = model if isinstance(model, DamageProjection) else None
@@ -112,12 +135,12 @@ class Engine:
         #: rejected trials: alternate-minimization iterations, linear solves, backtracks,
         #: nucleation trials tried and accepted.
         self.work = {"iterations": 0, "u_solves": 0, "backtracks": 0, "trials": 0, "trials_accepted": 0,
-                     "saddles_left": 0}
+                     "saddles_left": 0, "newton_steps": 0}
 
     @classmethod
     def from_options(cls, model: FractureModel, options: EngineOptions) -> "Engine":
         """The engine with one :class:`thinfilm.engine.options.EngineOptions` (a scene's)."""
-        return cls(model, options.altmin, options.backtrack, options.search, options.stability)
+        return cls(model, options.altmin, options.backtrack, options.search, options.stability, options.newton)
 
     # -- the two half-steps ---------------------------------------------------------------
     def _solve_u(self, alpha, t, u0, rtol, record):
@@ -216,6 +239,10 @@ class Engine:
         # that update's u and energy, to return to if the extrapolation does not pay.
         pending = None
         deep = self.backtrack.kind == "deep" and history
+        # Newton takes over below this change of alpha (see _hand_over); after a failed
+        # attempt, below half the change it failed at, or again below switch once the
+        # change has risen above it (a new phase of the step).
+        switch, attempts = self.newton.switch, 0
         for iteration in range(1, opts.max_iter + 1):
             rtol = float(np.clip(1e-2 * change, opts.u_rtol_min, opts.u_rtol_max))
             try:
@@ -251,7 +278,25 @@ class Engine:
             if deep and iteration % self.backtrack.interval == 0:
                 self._deep_check(step, t, u, alpha_star, elastic, surface, history)
             settled.append(elastic + surface)
-            if change < opts.tol:
+            if change > self.newton.switch:
+                switch = self.newton.switch
+            converged = change < opts.tol
+            if self.uses_newton and attempts < self.newton.attempts and (
+                    converged or self._hand_over(changes, settled, switch)):
+                # (converged: alternate minimization's answer, polished to Newton's tolerance)
+                attempts += 1
+                result = self._newton(u, alpha_star, lower, t, record)
+                if result.converged:
+                    return State(t, result.u, result.alpha, result.elastic, result.surface)
+                if converged and result.steps == 0:
+                    return State(t, u, alpha_star, elastic, surface)
+                # Back to alternate minimization from Newton's last state (never above the
+                # one handed over).
+                switch = 0.5 * min(switch, change)
+                alpha, u = result.alpha, result.u
+                omega, omega_cap, direction = 1.0, opts.omega, None
+                continue
+            if converged:
                 return State(t, u, alpha_star, elastic, surface)
             if opts.stop == "energy" and self._energy_settled(settled, record.kkt, changes):
                 record.stopped_by_energy = 1
@@ -270,6 +315,48 @@ class Engine:
             alpha = alpha_star
         raise EvolutionError(f"step {step} (t = {t:g}): alternate minimization did not converge in"
                              f" {opts.max_iter} iterations (last change of alpha {change:.3g}, tol {opts.tol:g})")
+
+    @staticmethod
+    def _hand_over(changes, energies, switch):
+        """Whether alternate minimization hands over to Newton: its change of alpha is below
+        ``switch``, and over the last :data:`SETTLED_WINDOW` iterations both the change and
+        the energy's decrease have fallen at each iteration: a settling tail (where Newton
+        converges in a few steps), not the slow start of a damage mode growing through its
+        instability, where the change also starts small but the decrease grows (Newton there
+        moves a crack front about as far per step as alternate minimization per iteration,
+        at a higher cost: docs/solvers.md#newton-on-both-fields)."""
+        n = SETTLED_WINDOW
+        if len(changes) < n + 1 or len(energies) < n + 2 or not changes[-1] < switch:
+            return False
+        recent = changes[-(n + 1):]
+        decrease = -np.diff(energies[-(n + 2):])
+        return (all(a > b for a, b in zip(recent[:-1], recent[1:]))
+                and all(a > b for a, b in zip(decrease[:-1], decrease[1:])))
+
+    def _newton(self, u, alpha, lower, t, record):
+        """A Newton attempt (:func:`thinfilm.engine.newton.newton_minimize`) from ``(u, alpha)``,
+        counted in ``record``."""
+        start = time.perf_counter()
+        result = newton_minimize(self.model, u, alpha, lower, t, self.newton, project=self._project,
+                                 solver=self.newton_solver)
+        record.newton_attempts += 1
+        record.newton_steps += result.steps
+        record.newton_rejections += result.rejections
+        record.inertia_corrections += result.corrections
+        record.newton_failures += int(not result.converged)
+        record.time_newton += time.perf_counter() - start
+        self.work["newton_steps"] += result.steps
+        return result
+
+    def final_kkt(self, state, lower):
+        """The scaled KKT residual of a converged state (:func:`thinfilm.engine.newton.kkt_residual`),
+        NaN for a model without :class:`EnergyDerivatives`."""
+        if not self._derivatives:
+            return float("nan")
+        lower = self._admissible_lower(np.broadcast_to(lower, state.alpha.shape))
+        g_u, g_a = self.model.energy_gradient(state.u, state.alpha, state.t)
+        K_uu, _, K_aa = self.model.hessian_blocks(state.u, state.alpha, state.t)
+        return kkt_residual(g_u, g_a, K_uu, self.model.free_u(state.u), state.alpha, lower, K_aa.diagonal())
 
     def _energy_settled(self, energies, kkt, changes):
         """Whether a step may stop before the change of alpha is below ``tol`` (``stop =
@@ -409,6 +496,7 @@ class Engine:
                     record.trials_accepted += 1
                     self.work["trials_accepted"] += 1
                     record.iterations += trial_record.iterations
+                    record.newton_steps += trial_record.newton_steps
             if not improved:
                 break
         self._u_cache = best_cache
@@ -426,6 +514,9 @@ class Engine:
         record.u_solves_skipped += trial_record.u_solves_skipped
         record.time_u += trial_record.time_u
         record.time_alpha += trial_record.time_alpha
+        record.time_newton += trial_record.time_newton
+        for name in ("newton_attempts", "newton_failures", "newton_rejections", "inertia_corrections"):
+            setattr(record, name, getattr(record, name) + getattr(trial_record, name))
         return trial, trial_record
 
     def _leave_saddles(self, state, lower, record, step):
@@ -446,6 +537,7 @@ class Engine:
                 break
             best, best_cache = trial, self._u_cache
             record.iterations += trial_record.iterations
+            record.newton_steps += trial_record.newton_steps
             record.trials_accepted += 1
             record.saddles_left += 1
             self.work["trials_accepted"] += 1
@@ -536,6 +628,7 @@ class Engine:
             lower = alpha_prev if i == 0 else states[i - 1].alpha
             record = StepRecord(i, t, backtracks=backtracks_into.get(i, 0))
             started = time.perf_counter()
+            work_before = WORK.snapshot()
             if guess is not None and not restarted:
                 start = guess(t)
                 if start is not None:
@@ -568,7 +661,11 @@ class Engine:
                 u_start = back.u * (t_values[k] / back.t_from)
                 i, restarted = k, True
                 continue
+            record.kkt_final = self.final_kkt(state, lower)
             record.time_total = time.perf_counter() - started
+            factorizations, linear_solves = WORK.snapshot()
+            record.factorizations = factorizations - work_before[0]
+            record.linear_solves = linear_solves - work_before[1]
             record.elastic, record.surface, record.total = state.elastic, state.surface, state.total
             record.u_rescalable = int(self._keep_u(state))
             states.append(state)

@@ -1,6 +1,6 @@
 """The engine's options, each declared once with its default, units and allowed values.
 
-Four groups, one per part of the evolution (:mod:`thinfilm.engine.evolution`), and
+Five groups, one per part of the evolution (:mod:`thinfilm.engine.evolution`), and
 :class:`EngineOptions` that holds one of each. A scene sets them in its ``[solver]`` table
 under the keys :data:`SCENE_GROUPS` gives (``tol``, ``omega``, ``backtrack``,
 ``backtrack_delta``, ``search``, ``search_delta``, ``stability_tol``...), read straight into
@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 
 from thinfilm.options import OptionError, Rule, option, validate
 
-__all__ = ["AltMinOptions", "BacktrackOptions", "SearchOptions", "StabilityOptions", "EngineOptions",
-           "SCENE_GROUPS"]
+__all__ = ["AltMinOptions", "NewtonOptions", "BacktrackOptions", "SearchOptions", "StabilityOptions",
+           "EngineOptions", "SCENE_GROUPS"]
 
 _POSITIVE = Rule("number", minimum=0.0, exclusive=True)
 
@@ -109,6 +109,74 @@ class AltMinOptions:
         validate(self)
         if self.u_rtol_min > self.u_rtol_max:
             raise OptionError("u_rtol_min", self.u_rtol_min, f"must be <= u_rtol_max = {self.u_rtol_max:g}")
+
+
+@dataclass(frozen=True)
+class NewtonOptions:
+    """The nonlinear solver of a load step: alternate minimization alone, or followed by a
+    reduced-space active-set Newton method on ``(u, alpha)`` (:mod:`thinfilm.engine.newton`).
+
+    Attributes
+    ----------
+    method : {"altmin", "newton", "auto"}
+        ``"altmin"``: alternate minimization to ``tol`` (:class:`AltMinOptions`).
+        ``"newton"``: alternate minimization (with its over-relaxation) until the change of
+        alpha is below ``switch``, then Newton steps on both fields to a KKT point
+        (``tol``); the model must offer
+        :class:`thinfilm.engine.protocol.EnergyDerivatives`. ``"auto"``: ``"newton"`` for a
+        model that offers the derivatives and asks for it
+        (:attr:`thinfilm.engine.protocol.EnergyDerivatives.newton_pays`), else ``"altmin"``
+        (the choice per model was measured: docs/speed.md#newton).
+    tol : float
+        A Newton step ends when the scaled KKT residual of the state
+        (:func:`thinfilm.engine.newton.kkt_residual`: the larger of the damage's, in units of
+        damage, and the displacement's relative residual) is below ``tol`` and the last
+        Newton step lowered the energy by less than ``energy_tol |E|``.
+    energy_tol : float
+    switch : float
+        The change of alpha of an alternate-minimization iteration below which Newton takes
+        over.
+    max_steps : int
+        Newton steps per attempt; an attempt that has not converged then returns its last
+        state to alternate minimization, which hands over again when its change of alpha
+        has fallen ``10`` times below the one at which the attempt failed.
+    attempts : int
+        Newton attempts per load step (after the last, alternate minimization finishes it).
+    indefinite : {"altmin", "shift"}
+        What a Newton attempt does where the reduced Hessian is not positive definite (a crack
+        on its way): give the state back to alternate minimization, or correct the inertia
+        (``shift``) and go on.
+    shift : float
+        With ``indefinite = "shift"``: the first inertia correction: where the reduced Hessian is not positive definite, its
+        damage block ``H_aa`` becomes ``H_aa + delta diag(H_aa)``, with ``delta`` = ``shift``,
+        then 10 times more at each refactorization until it is.
+    max_shift : float
+        The largest ``delta`` tried before the attempt gives up.
+    """
+
+    method: str = option("altmin", "the nonlinear solver of a load step: alternate minimization, or alternate"
+                         " minimization handing over to a Newton method on both fields (newton), or the"
+                         " measured choice per model (auto)", rule=Rule("choice", choices=("altmin", "newton", "auto")),
+                         scene="nonlinear")
+    tol: float = option(1e-6, "Newton: a step ends when the scaled KKT residual of the state is below this",
+                        rule=_POSITIVE, units="damage")
+    energy_tol: float = option(1e-10, "Newton: and the last Newton step lowered the energy by less than this,"
+                               " relative to it", rule=_POSITIVE)
+    switch: float = option(1e-2, "Newton takes over when alternate minimization changes no node's damage by"
+                           " this much", rule=_POSITIVE, units="damage")
+    max_steps: int = option(25, "Newton steps per attempt", rule=Rule("integer", minimum=1))
+    attempts: int = option(3, "Newton attempts per load step", rule=Rule("integer", minimum=1))
+    indefinite: str = option("altmin", "Newton, where the reduced Hessian is not positive definite: back to"
+                             " alternate minimization, or an inertia correction (shift)",
+                             rule=Rule("choice", choices=("altmin", "shift")))
+    shift: float = option(1e-4, "first inertia correction of the damage block, relative to its diagonal",
+                          rule=_POSITIVE)
+    max_shift: float = option(1e4, "largest inertia correction tried", rule=_POSITIVE)
+
+    def __post_init__(self):
+        validate(self)
+        if self.shift > self.max_shift:
+            raise OptionError("shift", self.shift, f"must be <= max_shift = {self.max_shift:g}")
 
 
 @dataclass(frozen=True)
@@ -226,6 +294,7 @@ class EngineOptions:
     """One of each option group: everything the engine can be told."""
 
     altmin: AltMinOptions = field(default_factory=AltMinOptions)
+    newton: NewtonOptions = field(default_factory=NewtonOptions)
     backtrack: BacktrackOptions = field(default_factory=BacktrackOptions)
     search: SearchOptions = field(default_factory=SearchOptions)
     stability: StabilityOptions = field(default_factory=StabilityOptions)
@@ -237,6 +306,7 @@ class EngineOptions:
 #: prefix (``tol``, ``omega``...).
 SCENE_GROUPS = (
     ("altmin", AltMinOptions, "", None),
+    ("newton", NewtonOptions, "newton", None),
     ("backtrack", BacktrackOptions, "backtrack", "kind"),
     ("search", SearchOptions, "search", "enabled"),
     ("stability", StabilityOptions, "stability", "enabled"),

@@ -14,8 +14,8 @@ Five hooks are optional, each a protocol of its own that the engine recognizes w
 * :class:`DamageProjection`, for a model whose damage is restricted to a subset of fields
   (the symmetric fields of a film restricted to a mirror group);
 * :class:`EnergyDerivatives`, the gradient and the Hessian blocks of the energy in
-  ``(u, alpha)`` on the free dofs (for a Newton method on both fields; the engine does not
-  use it yet).
+  ``(u, alpha)`` on the free dofs, needed by the Newton method on both fields
+  (:mod:`thinfilm.engine.newton`).
 
 A model's ``solve_u`` that fails raises :class:`thinfilm.solvers.errors.SolverError` (every
 solver of the toolkit does); the engine turns it into an
@@ -125,7 +125,15 @@ class EnergyDerivatives(Protocol):
     ``solve_u`` factorizes at ``alpha`` (on the free dofs). Where a model's energy is only
     piecewise quadratic in ``u`` (a unilateral split) the blocks are those of the piece
     ``u`` lies in, the Hessian away from the switch surfaces.
+
+    Attributes
+    ----------
+    newton_pays : bool
+        Whether ``[solver] nonlinear = "auto"`` hands this model's load steps over to Newton:
+        the measured choice (docs/speed.md#newton).
     """
+
+    newton_pays: bool
 
     def free_u(self, u: np.ndarray) -> np.ndarray:
         """The free dofs of the full displacement ``u``: shape ``(n_u,)`` -> ``(n_u_free,)``."""

@@ -46,14 +46,31 @@ class StepRecord:
         (solved, or rescaled from an earlier solve at that damage): with a proportional load
         the next step may then rescale it instead of solving while its damage stays the same.
         Stored, so that a resumed run makes the same choice as an uninterrupted one.
-    time_u, time_alpha, time_total : float
-        Wall-clock seconds in u-solves, alpha-solves and in the whole step.
+    time_u, time_alpha, time_newton, time_total : float
+        Wall-clock seconds in u-solves, alpha-solves, Newton attempts and the whole step.
     kkt : float
         Scaled KKT residual of the damage problem at the last u-solve, before the last
         alpha-solve (units of damage): how far that pair ``(u, alpha)`` is from stationary.
     stopped_by_energy : int
         1 if alternate minimization stopped on its settled energy (``stop = "energy"``)
         before the change of alpha fell below ``tol``.
+    newton_steps : int
+        Accepted Newton steps (:mod:`thinfilm.engine.newton`), those of the kept trials
+        included.
+    newton_attempts, newton_failures : int
+        Hand-overs to Newton, and those that gave the state back to alternate minimization.
+    newton_rejections : int
+        Points the Newton line search rejected.
+    inertia_corrections : int
+        Newton steps whose Hessian had to be shifted to be positive definite.
+    linear_solves, factorizations : int
+        Linear solves of the u-problem or the coupled Newton system, and numeric
+        factorizations of any matrix (:mod:`thinfilm.solvers.work`), over the whole step:
+        rejected trials, undone extrapolations and the stability check included.
+    kkt_final : float
+        The scaled KKT residual of the kept state (:func:`thinfilm.engine.newton.kkt_residual`:
+        the larger of the damage's, in units of damage, and the displacement's relative
+        residual); NaN for a model without :class:`thinfilm.engine.protocol.EnergyDerivatives`.
     energy_history : list of float
         Total energy after every half-step of alternate minimization (non-increasing).
     """
@@ -72,12 +89,21 @@ class StepRecord:
     time_u: float = 0.0
     time_alpha: float = 0.0
     time_total: float = 0.0
+    time_newton: float = 0.0
     extrapolations_rejected: int = 0
     lowest_curvature: float = math.nan
     saddles_left: int = 0
     u_rescalable: int = 0
     kkt: float = math.nan
     stopped_by_energy: int = 0
+    newton_steps: int = 0
+    newton_attempts: int = 0
+    newton_failures: int = 0
+    newton_rejections: int = 0
+    inertia_corrections: int = 0
+    linear_solves: int = 0
+    factorizations: int = 0
+    kkt_final: float = math.nan
     energy_history: list = field(default_factory=list)
 
 

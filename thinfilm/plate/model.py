@@ -86,6 +86,9 @@ class PlateModel:
         :meth:`force`; by default ``load(1)`` for a proportional load.
     """
 
+    #: Whether ``[solver] nonlinear = "auto"`` uses Newton on this model (docs/speed.md#newton).
+    newton_pays = False
+
     def __init__(self, grid: Grid, nu, winkler, k_res, eta, toughness, at, load: Callable, proportional,
                  linear_solver, clamped=(), trial_radius=0.0, sound_threshold=0.5, symmetry=None,
                  toughness_factor=None, load_rate=None):

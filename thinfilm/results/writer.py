@@ -53,15 +53,23 @@ from thinfilm.resume import INPUTS_ATTRIBUTE, ResumeError, check_inputs, check_r
 from thinfilm.threads import threads_summary
 
 __all__ = ["ResumeError", "ResultsWriter", "check_stored_inputs", "STEP_FIELDS", "INTEGER_STEP_FIELDS",
+           "SUMMARY_STEP_FIELDS",
            "root_attributes", "write_json", "write_summary"]
 
 #: Per-step records of an engine run, in /steps (names of thinfilm.engine.records.StepRecord).
 STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_solves_skipped",
                "backtracks", "trials", "trials_accepted", "time_u", "time_alpha", "time_total",
-               "lowest_curvature", "saddles_left", "u_rescalable", "kkt", "stopped_by_energy")
+               "lowest_curvature", "saddles_left", "u_rescalable", "kkt", "stopped_by_energy",
+               "newton_steps", "newton_attempts", "newton_failures", "newton_rejections", "inertia_corrections",
+               "linear_solves", "factorizations", "kkt_final", "time_newton")
 #: The integer ones among them.
 INTEGER_STEP_FIELDS = ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials", "trials_accepted",
-                       "saddles_left", "u_rescalable", "stopped_by_energy", "threads")
+                       "saddles_left", "u_rescalable", "stopped_by_energy", "threads", "newton_steps",
+                       "newton_attempts", "newton_failures", "newton_rejections", "inertia_corrections",
+                       "linear_solves", "factorizations")
+#: The per-step lists of summary.json (those a file written before they existed lacks are left out).
+SUMMARY_STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "newton_steps", "newton_rejections",
+                       "linear_solves", "factorizations", "kkt_final")
 
 
 def root_attributes(scene):
@@ -376,7 +384,10 @@ def write_summary(path, scene, results, extra=None):
     """``summary.json`` of a run driven by the engine.
 
     ``{"kind": ..., "scene": <scene file>, "parameters": {...}, <the kind's own entries>,
-    "threads": {...} (:func:`thinfilm.threads.threads_summary`), "steps": {"t": [...], "elastic": [...], "surface": [...], "total": [...], "iterations": [...]}}``
+    "threads": {...} (:func:`thinfilm.threads.threads_summary`), "steps": {"t": [...], "elastic": [...], ...}}``
+    with the per-step lists :data:`SUMMARY_STEP_FIELDS` (``kkt_final``: the scaled KKT residual
+    each step ended at, :attr:`thinfilm.engine.records.StepRecord.kkt_final`; NaN is written as
+    ``NaN``).
 
     Parameters
     ----------
@@ -390,7 +401,7 @@ def write_summary(path, scene, results, extra=None):
         if any, adds per-step lists to ``"steps"`` (a solid's force and crack length).
     """
     extra = dict(extra or {})
-    steps = {name: results.steps[name].tolist() for name in ("t", "elastic", "surface", "total", "iterations")}
+    steps = {name: results.steps[name].tolist() for name in SUMMARY_STEP_FIELDS if name in results.steps}
     steps.update(extra.pop("steps", {}))
     content = {"kind": scene.kind, "scene": scene.source, "parameters": results.parameters, **extra}
     threads = threads_summary(results.attrs.get("threads"), results.steps.get("threads"))

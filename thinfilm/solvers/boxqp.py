@@ -81,6 +81,7 @@ import scipy.sparse.linalg as spla
 from thinfilm.solvers import kernels
 from thinfilm.solvers.kernels import kkt_violation
 from thinfilm.solvers.errors import SolverError
+from thinfilm.solvers.work import WORK
 
 __all__ = [
     "BoxQPResult",
@@ -705,6 +706,7 @@ def _direct_solve(A_ff, rhs):
         raise DamageSolverError(
             f"reduced damage matrix on {rhs.size} free nodes could not be factorized "
             f"({exc}); A must be SPD", kkt_residual=float("nan"), iterations=0) from exc
+    WORK.factorizations += 1
     return lu.solve(rhs)
 
 

@@ -22,6 +22,7 @@ from thinfilm.solvers.linear.base import (
     check_rhs,
     pcg,
 )
+from thinfilm.solvers.work import WORK
 
 __all__ = ["AMGSolver", "AMG_DEFAULTS"]
 
@@ -142,6 +143,7 @@ class AMGSolver(LinearSolver):
                 continue
         if factor is None:
             factor, apply = sla.lu_factor(Ak, check_finite=False), sla.lu_solve
+        WORK.factorizations += 1  # the coarsest level's, once per hierarchy
 
         def solve(b):
             x = np.zeros_like(b)
@@ -214,6 +216,7 @@ class AMGSolver(LinearSolver):
             x0 = np.asarray(x0, dtype=np.float64)
             if x0.shape != (self.n,) or not np.all(np.isfinite(x0)):
                 x0 = None  # a bad warm start is not worth failing a solve for
+        WORK.linear_solves += 1
         if np.linalg.norm(f) == 0.0:
             return np.zeros(self.n), SolveInfo(self.kind, 0, 0.0, rtol, 0.0, 0.0, False)
         t_setup = 0.0

@@ -25,6 +25,7 @@ from thinfilm.solvers.linear.base import (
 )
 from thinfilm.solvers.linear.pardiso import PardisoBackend, pardiso_available
 from thinfilm.solvers.linear.superlu import SuperLUBackend
+from thinfilm.solvers.work import WORK
 
 __all__ = ["DirectSolver", "PRECISIONS", "AUTO_SINGLE_MIN_UNKNOWNS", "SINGLE_MAX_REFINE",
            "SINGLE_START_RESIDUAL"]
@@ -132,6 +133,8 @@ class DirectSolver(LinearSolver):
         if rebuilt:
             self._backend.factor(self.K)
             self._factored = True
+            WORK.factorizations += 1
+        WORK.linear_solves += 1
         t1 = time.perf_counter()
         normf = np.linalg.norm(f)
         if normf == 0.0:
