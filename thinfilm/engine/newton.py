@@ -43,7 +43,7 @@ after a failure is no worse than what it handed over.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -54,8 +54,6 @@ from thinfilm.solvers.linear.indefinite import IndefiniteSolver
 
 __all__ = ["NewtonResult", "newton_minimize", "kkt_residual", "ARMIJO", "LINE_SEARCH_STEPS"]
 
-import os
-_DEBUG = bool(os.environ.get("NEWTON_DEBUG"))
 #: Sufficient decrease of the line search, as a fraction of the first-order prediction.
 ARMIJO = 1e-4
 #: Halvings of the line search before it fails (the last step tried is 2^-(n-1)).
@@ -87,6 +85,8 @@ class NewtonResult:
         Steps whose Hessian needed an inertia correction.
     kkt : float
         :func:`kkt_residual` of the returned state (NaN if it was not evaluated there).
+    residuals : list of float
+        :func:`kkt_residual` at each state the attempt evaluated, the first one included.
     """
 
     u: np.ndarray
@@ -100,6 +100,7 @@ class NewtonResult:
     rejections: int = 0
     corrections: int = 0
     kkt: float = math.nan
+    residuals: list = field(default_factory=list)
 
 
 def kkt_residual(g_u, g_alpha, K_uu, u_free, alpha, lower, damage_diagonal) -> float:
@@ -177,6 +178,7 @@ def newton_minimize(model, u, alpha, lower, t, options, project=None, solver=Non
         g_u, g_a = model.energy_gradient(u, alpha, t)
         K_uu, K_ua, K_aa = model.hessian_blocks(u, alpha, t)
         result.kkt = kkt_residual(g_u, g_a, K_uu, x, alpha, lower, K_aa.diagonal())
+        result.residuals.append(result.kkt)
         near = result.kkt <= options.tol
         if near and decrease <= options.energy_tol * abs(energy):
             result.converged, result.reason = True, "converged"
@@ -185,6 +187,8 @@ def newton_minimize(model, u, alpha, lower, t, options, project=None, solver=Non
             result.reason = "max steps"
             return result
         free = _free_damage(alpha, lower, g_a)
+        # The held nodes are left out (not kept as identity rows): their couplings, stored as
+        # zeros to keep one pattern, would cost the factorization their fill.
         K_uF = K_ua[:, free]
         K_FF = K_aa[free][:, free]
         H = sp.bmat([[K_uu, K_uF], [K_uF.T, K_FF]], format="csr")
@@ -195,7 +199,7 @@ def newton_minimize(model, u, alpha, lower, t, options, project=None, solver=Non
         delta = 0.0 if delta == 0.0 else max(options.shift, delta / 3.0)
         try:
             while True:
-                inertia = solver.factor(H if delta == 0.0 else H + sp.diags(delta * shift_scale))
+                inertia = solver.factor(H, None if delta == 0.0 else delta * shift_scale)
                 result.factorizations += 1
                 if inertia.definite:
                     break
@@ -238,10 +242,6 @@ def newton_minimize(model, u, alpha, lower, t, options, project=None, solver=Non
             result.reason = "line search"
             return result
         decrease = energy - (e_trial + s_trial)
-        if _DEBUG:
-            clipped = int(np.sum((alpha[free] + s * d_a <= lower[free]) | (alpha[free] + s * d_a >= 1.0)))
-            print(f"    s={s:g} predicted={-predicted:.3e} quad={-0.5*float(rhs @ d):.3e} actual={decrease:.3e}"
-                  f" free={free.size} clipped={clipped} max|da|={np.abs(d_a).max():.3e}", flush=True)
         x, u, alpha, energy = x_trial, u_trial, a_trial, e_trial + s_trial
         result.u, result.alpha, result.elastic, result.surface = u, alpha, e_trial, s_trial
         result.kkt = math.nan

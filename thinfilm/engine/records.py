@@ -65,8 +65,9 @@ class StepRecord:
         Newton steps whose Hessian had to be shifted to be positive definite.
     linear_solves, factorizations : int
         Linear solves of the u-problem or the coupled Newton system, and numeric
-        factorizations of any matrix (:mod:`thinfilm.solvers.work`), over the whole step:
-        rejected trials, undone extrapolations and the stability check included.
+        factorizations of any matrix, by the toolkit's solvers (:mod:`thinfilm.solvers.work`;
+        a model with a solver of its own, as ``examples/bar``, adds none of its own), over the
+        whole step: rejected trials, undone extrapolations and the stability check included.
     kkt_final : float
         The scaled KKT residual of the kept state (:func:`thinfilm.engine.newton.kkt_residual`:
         the larger of the damage's, in units of damage, and the displacement's relative

@@ -80,8 +80,16 @@ class IndefiniteSolver:
         self._U = None
         self._dense = None
 
-    def factor(self, H) -> Inertia:
-        """Factor the symmetric ``H`` (scipy sparse, shape ``(n, n)``, both triangles stored).
+    def factor(self, H, shift=None) -> Inertia:
+        """Factor the symmetric ``H + diag(shift)``.
+
+        Parameters
+        ----------
+        H : scipy.sparse matrix, shape (n, n)
+            Both triangles stored, every diagonal entry in the pattern. Explicit zeros stay in
+            the pattern (so that a matrix whose values vanish somewhere keeps its analysis).
+        shift : ndarray, shape (n,), optional
+            Added to the diagonal.
 
         Raises
         ------
@@ -89,19 +97,34 @@ class IndefiniteSolver:
             If the factorization fails, or PARDISO is missing and ``n > DENSE_MAX``.
         """
         H = sp.csr_matrix(H, dtype=np.float64)
+        if not H.has_sorted_indices:
+            H = H.sorted_indices()
         n = H.shape[0]
-        diagonal = np.abs(H.diagonal())
+        # Values are set entry by entry on the pattern: scipy's sparse sums and products drop
+        # the entries that come out zero, and with them the pattern the analysis was made for.
+        rows = np.repeat(np.arange(n, dtype=np.int32), np.diff(H.indptr))
+        on_diagonal = np.flatnonzero(H.indices == rows)
+        if on_diagonal.size != n:
+            raise LinearSolverError("a diagonal entry is missing from the pattern", kind="indefinite")
+        data = H.data.copy()
+        if shift is not None:
+            data[on_diagonal] += shift
+        diagonal = np.abs(data[on_diagonal])
         scale = np.where(diagonal > 0.0, 1.0 / np.sqrt(np.where(diagonal > 0.0, diagonal, 1.0)), 1.0)
         self._scale = scale
-        scaled = sp.diags(scale) @ H @ sp.diags(scale)
+        data *= scale[rows] * scale[H.indices]
         WORK.factorizations += 1
         self.factorizations += 1
         if not self.pardiso:
             if n > DENSE_MAX:
                 raise LinearSolverError(f"a symmetric indefinite system of {n} unknowns needs PARDISO"
                                         " (pypardiso with MKL), which could not be loaded", kind="indefinite")
-            return self._factor_dense(scaled.toarray())
-        return self._factor_pardiso(scaled)
+            return self._factor_dense(sp.csr_matrix((data, H.indices, H.indptr), shape=H.shape).toarray())
+        upper = H.indices >= rows
+        U = sp.csr_matrix((data[upper], H.indices[upper].astype(np.int32),
+                           np.concatenate(([0], np.cumsum(np.bincount(rows[upper], minlength=n)))).astype(np.int32)),
+                          shape=H.shape)
+        return self._factor_pardiso(U)
 
     def _factor_dense(self, H):
         lu, d, perm = sla.ldl(H, lower=True, hermitian=True)
@@ -109,11 +132,7 @@ class IndefiniteSolver:
         self._dense = sla.lu_factor(H)
         return Inertia(int(np.sum(eigenvalues > 0.0)), int(np.sum(eigenvalues < 0.0)), H.shape[0])
 
-    def _factor_pardiso(self, scaled):
-        upper = sp.triu(scaled, format="csr")
-        upper.sort_indices()
-        upper = sp.csr_matrix((upper.data, upper.indices.astype(np.int32), upper.indptr.astype(np.int32)),
-                              shape=upper.shape)
+    def _factor_pardiso(self, upper):
         if self._ps is None:
             self._ps = new_solver()
             self._ps.set_matrix_type(-2)
