@@ -39,7 +39,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from thinfilm.engine.newton import kkt_residual, newton_minimize
+from thinfilm.engine.newton import newton_minimize, state_kkt
 from thinfilm.engine.options import (AltMinOptions, BacktrackOptions, EngineOptions, NewtonOptions, SearchOptions,
                                      StabilityOptions)
 from thinfilm.engine.protocol import (AffineLoad, DamageProjection, EnergyDerivatives, FractureModel, StabilityModes,
@@ -349,14 +349,12 @@ class Engine:
         return result
 
     def final_kkt(self, state, lower):
-        """The scaled KKT residual of a converged state (:func:`thinfilm.engine.newton.kkt_residual`),
+        """The scaled KKT residual of a converged state (:func:`thinfilm.engine.newton.state_kkt`),
         NaN for a model without :class:`EnergyDerivatives`."""
         if not self._derivatives:
             return float("nan")
         lower = self._admissible_lower(np.broadcast_to(lower, state.alpha.shape))
-        g_u, g_a = self.model.energy_gradient(state.u, state.alpha, state.t)
-        K_uu, _, K_aa = self.model.hessian_blocks(state.u, state.alpha, state.t)
-        return kkt_residual(g_u, g_a, K_uu, self.model.free_u(state.u), state.alpha, lower, K_aa.diagonal())
+        return state_kkt(self.model, state.u, state.alpha, lower, state.t)
 
     def _energy_settled(self, energies, kkt, changes):
         """Whether a step may stop before the change of alpha is below ``tol`` (``stop =

@@ -52,7 +52,8 @@ from thinfilm.solvers.errors import SolverError
 from thinfilm.solvers.kernels import kkt_violation
 from thinfilm.solvers.linear.indefinite import IndefiniteSolver
 
-__all__ = ["NewtonResult", "newton_minimize", "kkt_residual", "ARMIJO", "LINE_SEARCH_STEPS"]
+__all__ = ["NewtonResult", "newton_minimize", "kkt_residual", "load_norm", "state_kkt", "ARMIJO",
+           "LINE_SEARCH_STEPS"]
 
 #: Sufficient decrease of the line search, as a fraction of the first-order prediction.
 ARMIJO = 1e-4
@@ -103,21 +104,21 @@ class NewtonResult:
     residuals: list = field(default_factory=list)
 
 
-def kkt_residual(g_u, g_alpha, K_uu, u_free, alpha, lower, damage_diagonal) -> float:
+def kkt_residual(g_u, g_alpha, load_norm, alpha, lower, damage_diagonal) -> float:
     """The scaled KKT residual of a state: ``max(r_alpha, r_u)``, dimensionless.
 
     ``r_alpha`` is the damage's, in units of damage (:func:`thinfilm.solvers.boxqp.kkt_residual`
     with the gradient ``g_alpha`` and the scale ``diag K_aa``): how far a node could move on
     its own, admissibly, to lower the energy. ``r_u = ||g_u|| / ||f||`` is the displacement's
-    relative residual, ``f = K_uu u - g_u`` the load the free dofs feel (the u-solves' own
-    measure); 0 if ``g_u = 0``, infinite if only ``f`` is.
+    relative residual (the u-solves' own measure), ``f = -g_u(u_free = 0)`` the load the free
+    dofs feel (:func:`load_norm`); 0 if ``g_u = 0``, infinite if only ``f`` is.
 
     Parameters
     ----------
     g_u : ndarray, shape (n_u_free,)
     g_alpha : ndarray, shape (n_alpha,)
-    K_uu : sparse matrix, shape (n_u_free, n_u_free)
-    u_free : ndarray, shape (n_u_free,)
+    load_norm : float
+        ``||f||``.
     alpha, lower : ndarray, shape (n_alpha,)
     damage_diagonal : ndarray, shape (n_alpha,)
         ``diag K_aa`` (positive).
@@ -131,9 +132,26 @@ def kkt_residual(g_u, g_alpha, K_uu, u_free, alpha, lower, damage_diagonal) -> f
     if norm_g == 0.0:
         r_u = 0.0
     else:
-        norm_f = float(np.linalg.norm(K_uu @ u_free - g_u))
-        r_u = norm_g / norm_f if norm_f > 0.0 else math.inf
+        r_u = norm_g / load_norm if load_norm > 0.0 else math.inf
     return max(r_alpha, r_u)
+
+
+def load_norm(model, u_free, alpha, t) -> float:
+    """``||f||``, ``f = -g_u`` at the free dofs held at 0 (the constrained ones at their values
+    at ``t``): the loads and prescribed motions as the free dofs feel them at ``alpha``
+    (exactly, for a split too: the internal force of a displacement is linear in it on each
+    piece and vanishes with it)."""
+    zero = model.u_from_free(np.zeros_like(u_free), t)
+    return float(np.linalg.norm(model.energy_gradient(zero, alpha, t)[0]))
+
+
+def state_kkt(model, u, alpha, lower, t) -> float:
+    """:func:`kkt_residual` of the state ``(u, alpha)`` of a model with
+    :class:`thinfilm.engine.protocol.EnergyDerivatives`: gradients only, no Hessian."""
+    g_u, g_a = model.energy_gradient(u, alpha, t)
+    # before load_norm: a model may rewrite the damage problem's arrays at its next call
+    diagonal = model.damage_problem(u, t)[0].diagonal()
+    return kkt_residual(g_u, g_a, load_norm(model, g_u, alpha, t), alpha, lower, diagonal)
 
 
 def _free_damage(alpha, lower, g_alpha):
@@ -177,7 +195,7 @@ def newton_minimize(model, u, alpha, lower, t, options, project=None, solver=Non
     for _ in range(options.max_steps + 1):
         g_u, g_a = model.energy_gradient(u, alpha, t)
         K_uu, K_ua, K_aa = model.hessian_blocks(u, alpha, t)
-        result.kkt = kkt_residual(g_u, g_a, K_uu, x, alpha, lower, K_aa.diagonal())
+        result.kkt = kkt_residual(g_u, g_a, load_norm(model, x, alpha, t), alpha, lower, K_aa.diagonal())
         result.residuals.append(result.kkt)
         near = result.kkt <= options.tol
         if near and decrease <= options.energy_tol * abs(energy):

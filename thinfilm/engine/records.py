@@ -69,7 +69,7 @@ class StepRecord:
         a model with a solver of its own, as ``examples/bar``, adds none of its own), over the
         whole step: rejected trials, undone extrapolations and the stability check included.
     kkt_final : float
-        The scaled KKT residual of the kept state (:func:`thinfilm.engine.newton.kkt_residual`:
+        The scaled KKT residual of the kept state (:func:`thinfilm.engine.newton.state_kkt`:
         the larger of the damage's, in units of damage, and the displacement's relative
         residual); NaN for a model without :class:`thinfilm.engine.protocol.EnergyDerivatives`.
     energy_history : list of float
