@@ -7,8 +7,9 @@ Two parts, each row against today's default (``[solver] nonlinear = "altmin"``) 
    12.5 mm elsewhere, k_res = 1e-6: 30k nodes; :data:`benchmarks.bench_fem_lpanel.SCENE_2D`).
    The evolution runs (over-relaxed) to the step before the crack appears; that step is then
    solved from the same converged state by a fresh engine per row: plain alternate
-   minimization (the baseline of the ratios), over-relaxed, each handing over to Newton, and
-   a reference, plain alternate minimization to ``tol = 1e-5`` (the converged answer the
+   minimization (the baseline of the ratios), over-relaxed, each handing over to Newton,
+   Newton with inertia correction instead of the hand-back (at the default hand-over, and
+   from the first iterations through the crack front's transit), and a reference, plain alternate minimization to ``tol = 1e-5`` (the converged answer the
    energies and cracks are compared with). Per row: alternate-minimization iterations, Newton
    steps, linear solves, factorizations (all, and the large ones: u-matrix and coupled
    system), wall time, the energy against the reference's, the crack nodes (``alpha >= 0.9``)
@@ -30,6 +31,9 @@ Usage (from the repository root)::
     python -m benchmarks.bench_newton --part runs                # about 1.5 hours
     python -m benchmarks.bench_newton --part runs --cases indentation
     python -m benchmarks.bench_newton --quick --out /tmp/newton  # tiny sizes, about 2 minutes
+    python -m benchmarks.bench_newton --part runs --collect --cases fig2_7   # rows from runs made
+
+Each case's rows are merged into the table as soon as its pair is done.
 
 Writes ``newton_nucleation.csv``, ``newton_runs.csv`` (rows merged by key) and ``newton.md``
 in ``benchmarks/results`` (``--out`` another folder).
@@ -58,6 +62,9 @@ NUCLEATION_ROWS = (
     ("newton", {"acceleration": "none"}, {"method": "newton"}),
     ("newton, overrelax", {"acceleration": "overrelax"}, {"method": "newton"}),
     ("newton, indefinite = shift", {"acceleration": "none"}, {"method": "newton", "indefinite": "shift"}),
+    # Newton through the transit: handed over at once, negative curvature shifted away
+    ("newton from the start, indefinite = shift", {"acceleration": "none"},
+     {"method": "newton", "indefinite": "shift", "switch": 1.0, "max_steps": 400, "attempts": 1}),
     ("reference: altmin, tol 1e-5", {"acceleration": "none", "tol": 1e-5}, {"method": "altmin"}),
 )
 NUCLEATION_FIELDS = ["id", "scene", "row", "iterations", "newton_steps", "newton_attempts", "newton_failures",
@@ -228,15 +235,23 @@ def _final_alpha(folder):
         return f["fields/alpha"][-1]
 
 
-def runs(cases, quick, out):
-    """The rows of part 2."""
+def runs(cases, quick, out, collect=False):
+    """Part 2: run each case's pair and merge its rows into ``newton_runs.csv`` as soon as it
+    is done; with ``collect``, only read the rows back from the run folders already there
+    (their wall time and peak memory unknown)."""
+    import math
+
     import numpy as np
 
     (out / "runs").mkdir(parents=True, exist_ok=True)
-    rows = []
     for case in cases:
-        started = [_start(case, nonlinear, quick, out) for nonlinear in ("altmin", "newton")]
-        measured = _wait(started)
+        rows = []
+        if collect:
+            started = [(None, out / "runs" / f"{case}-{nonlinear}", None) for nonlinear in ("altmin", "newton")]
+            measured = [(math.nan, math.nan)] * 2
+        else:
+            started = [_start(case, nonlinear, quick, out) for nonlinear in ("altmin", "newton")]
+            measured = _wait(started)
         pair = []
         for (process, folder, _), (wall, peak), nonlinear in zip(started, measured, ("altmin", "newton")):
             steps = json.loads((folder / "summary.json").read_text())["steps"]
@@ -262,7 +277,8 @@ def runs(cases, quick, out):
         rows[-2]["max_energy_diff"], rows[-1]["max_energy_diff"] = 0.0, float(f"{diff:.2e}")
         print(f"  {case}: altmin {rows[-2]['steps_s']} s, newton {rows[-1]['steps_s']} s of steps", file=sys.stderr,
               flush=True)
-    return rows
+        merge_csv(out / "newton_runs.csv", rows, RUN_FIELDS, key="id")
+        write_markdown(out)
 
 
 # ------------------------------------------------------------------------------------------
@@ -291,6 +307,8 @@ def main(argv=None):
     parser.add_argument("--part", choices=("nucleation", "runs", "all"), default="all")
     parser.add_argument("--cases", nargs="+", choices=tuple(CASES), default=tuple(CASES))
     parser.add_argument("--quick", action="store_true", help="tiny sizes (checks the script)")
+    parser.add_argument("--collect", action="store_true",
+                        help="part 2: read the rows back from the run folders of --out without running")
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -305,8 +323,7 @@ def main(argv=None):
         rows = json.loads(next(line for line in done.stdout.splitlines() if line.startswith("RESULT "))[7:])
         merge_csv(args.out / "newton_nucleation.csv", rows, NUCLEATION_FIELDS, key="id")
     if args.part in ("runs", "all"):
-        rows = runs(args.cases, args.quick, args.out)
-        merge_csv(args.out / "newton_runs.csv", rows, RUN_FIELDS, key="id")
+        runs(args.cases, args.quick, args.out, collect=args.collect)
     write_markdown(args.out)
 
 

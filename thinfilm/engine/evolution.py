@@ -13,6 +13,11 @@ interface :class:`thinfilm.engine.protocol.FractureModel` (the finite-difference
   only if, after the next u-solve, the energy is below that of the plain update; otherwise
   the plain update is restored, so the energy of the accepted states still decreases
   monotonically;
+* with ``[solver] nonlinear = "newton"`` (:class:`thinfilm.engine.options.NewtonOptions`),
+  alternate minimization hands its settling tail over to a Newton method on both fields
+  (:mod:`thinfilm.engine.newton`), which ends the step at a KKT point or gives the state back
+  (never at a higher energy); a step that alternate minimization finishes first is polished
+  by Newton to the same tolerance;
 * backtracking (dissertation Alg. 3.1): once step ``n`` has converged, a state
   ``(u_n, alpha_n)`` scaled to ``(t_k/t_n) u_n`` is admissible at every earlier step ``k``
   (alpha only grows), so if ``P_k + S_k - ((t_k/t_n)^2 P_n + S_n) >= delta`` the evolution
