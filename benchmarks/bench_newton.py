@@ -9,26 +9,28 @@ Two parts, each row against today's default (``[solver] nonlinear = "altmin"``) 
    solved from the same converged state by a fresh engine per row: plain alternate
    minimization (the baseline of the ratios), over-relaxed, each handing over to Newton,
    Newton with inertia correction instead of the hand-back (at the default hand-over, and
-   from the first iterations through the crack front's transit), and a reference, plain alternate minimization to ``tol = 1e-5`` (the converged answer the
-   energies and cracks are compared with). Per row: alternate-minimization iterations, Newton
-   steps, linear solves, factorizations (all, and the large ones: u-matrix and coupled
-   system), wall time, the energy against the reference's, the crack nodes (``alpha >= 0.9``)
-   that differ from the reference's, the final scaled KKT residual, and the step's phases in
-   u-solves (onset, front, tail: :func:`benchmarks.bench_fem_lpanel.phases`).
+   from the first iterations through the crack front's transit), and a reference, plain
+   alternate minimization to ``tol = 1e-5`` (the converged answer the energies and cracks are
+   compared with). Per row: alternate-minimization iterations, Newton steps, linear solves,
+   factorizations (all, and the large ones: u-matrix and coupled system), wall time, the
+   energy against the reference's, the crack nodes (``alpha >= 0.9``) that differ from the
+   reference's, the final scaled KKT residual, and the step's phases in u-solves (onset,
+   front, tail: :func:`benchmarks.bench_fem_lpanel.phases`).
 2. ``runs``: whole evolutions, ``python -m thinfilm run CASE --threads 1`` with
    ``--set solver.nonlinear=...``, the two rows of a case side by side on the two cores (one
    thread each, so that both see the same machine). Per row: wall time and peak memory of the
-   process, the time in its steps (``/steps/time_total``: the speed-up is its ratio), the totals of its ``summary.json`` (iterations, Newton steps, linear solves,
-   factorizations), the largest final KKT residual of a step, the final energy, the largest
-   relative difference of a step's energy from the altmin row's, and the crack nodes of the
-   last step that differ from the altmin row's.
+   process, the time in its steps (``/steps/time_total``: the speed-up is its ratio), the
+   totals of its ``summary.json`` (iterations, Newton steps, linear solves, factorizations),
+   the largest final KKT residual of a step, the final energy, the largest relative
+   difference of a step's energy from the altmin row's, and the crack nodes of the last step
+   that differ from the altmin row's.
 
 Every process runs with ``MKL_NUM_THREADS=1`` and ``OMP_NUM_THREADS=1``.
 
 Usage (from the repository root)::
 
-    python -m benchmarks.bench_newton --part nucleation          # about 6 minutes
-    python -m benchmarks.bench_newton --part runs                # about 1.5 hours
+    python -m benchmarks.bench_newton --part nucleation          # about 8 minutes
+    python -m benchmarks.bench_newton --part runs                # 2-3 hours (double torsion: 1+ h)
     python -m benchmarks.bench_newton --part runs --cases indentation
     python -m benchmarks.bench_newton --quick --out /tmp/newton  # tiny sizes, about 2 minutes
     python -m benchmarks.bench_newton --part runs --collect --cases fig2_7   # rows from runs made
@@ -83,7 +85,8 @@ CASES = {
     "lpanel_3d": ("cases/lpanel_3d.toml", ["mesh.h=10", "mesh.h_coarse=40", "model.eps=20"], ["load.steps=10"]),
     "lpanel": ("cases/lpanel.toml", [], ["mesh.h=2.5", "model.eps=5.0"]),
 }
-RUN_FIELDS = ["id", "case", "nonlinear", "wall_s", "steps_s", "speedup", "peak_gb", "steps", "iterations", "newton_steps",
+RUN_FIELDS = ["id", "case", "nonlinear", "wall_s", "steps_s", "speedup", "peak_gb", "steps", "iterations",
+              "newton_steps",
               "linear_solves", "factorizations", "max_kkt_final", "energy", "max_energy_diff",
               "crack_nodes", "crack_nodes_off"]
 
@@ -199,7 +202,8 @@ def _start(case, nonlinear, quick, out):
         command += ["--set", item]
     env = {**os.environ, **THREADS}
     log = open(out / "runs" / f"{case}-{nonlinear}.log", "w")
-    return subprocess.Popen(command, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT), folder, time.perf_counter()
+    process = subprocess.Popen(command, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
+    return process, folder, time.perf_counter()
 
 
 def _wait(started):
@@ -293,7 +297,8 @@ def write_markdown(out):
              "Written by `python -m benchmarks.bench_newton` (one thread per process; docs/speed.md#newton).", ""]
     for title, name, fields in (("The L-panel's nucleation step (NGSolve settings)", "newton_nucleation.csv",
                                  NUCLEATION_FIELDS),
-                                ("Whole evolutions, the two rows of a case side by side", "newton_runs.csv", RUN_FIELDS)):
+                                ("Whole evolutions, the two rows of a case side by side", "newton_runs.csv",
+                                 RUN_FIELDS)):
         path = out / name
         if path.exists():
             with open(path, newline="") as fh:

@@ -33,8 +33,8 @@ model's :class:`thinfilm.engine.protocol.EnergyDerivatives` (gradient ``g``, Hes
 5. *Stop.* When :func:`kkt_residual` is below ``tol`` and the energy has settled: the last
    step lowered it by less than ``energy_tol |E|``, or the next (uncorrected) step promises
    less, ``1/2 g.H^-1.g`` (the decrease of the quadratic model); *give up* (returning the
-   last state, which is never above the first) when the line search fails, the correction exceeds ``max_shift``, a linear solve
-   fails, or ``max_steps`` pass.
+   last state, which is never above the first) when the line search fails, the correction
+   exceeds ``max_shift``, a linear solve fails, or ``max_steps`` pass.
 
 The energy decreases at every accepted step, so what alternate minimization receives back
 after a failure is no worse than what it handed over.
