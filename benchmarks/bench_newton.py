@@ -38,7 +38,8 @@ Usage (from the repository root)::
 Each case's rows are merged into the table as soon as its pair is done.
 
 Writes ``newton_nucleation.csv``, ``newton_runs.csv`` (rows merged by key) and ``newton.md``
-in ``benchmarks/results`` (``--out`` another folder).
+in ``benchmarks/results`` (``--out`` another folder); the runs of part 2 in ``--work``
+(default ``/tmp/thinfilm_bench_newton``).
 """
 
 from __future__ import annotations
@@ -55,6 +56,8 @@ from benchmarks.tables import markdown_table, merge_csv
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
+#: Where part 2's run folders go (kept out of the repository: results files of up to GBs).
+WORK = Path("/tmp/thinfilm_bench_newton")
 THREADS = {"MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1"}
 
 #: Nucleation rows: (name, alternate-minimization overrides, Newton overrides).
@@ -193,15 +196,15 @@ def nucleation(quick):
 # ------------------------------------------------------------------------------------------
 
 
-def _start(case, nonlinear, quick, out):
+def _start(case, nonlinear, quick, work):
     scene, overrides, quick_overrides = CASES[case]
-    folder = out / "runs" / f"{case}-{nonlinear}"
+    folder = work / f"{case}-{nonlinear}"
     command = [sys.executable, "-m", "thinfilm", "run", scene, "--out", str(folder), "--force", "--threads", "1",
                "--set", f'solver.nonlinear="{nonlinear}"']
     for item in overrides + (quick_overrides if quick else []):
         command += ["--set", item]
     env = {**os.environ, **THREADS}
-    log = open(out / "runs" / f"{case}-{nonlinear}.log", "w")
+    log = open(work / f"{case}-{nonlinear}.log", "w")
     process = subprocess.Popen(command, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
     return process, folder, time.perf_counter()
 
@@ -239,22 +242,22 @@ def _final_alpha(folder):
         return f["fields/alpha"][-1]
 
 
-def runs(cases, quick, out, collect=False):
+def runs(cases, quick, out, work, collect=False):
     """Part 2: run each case's pair and merge its rows into ``newton_runs.csv`` as soon as it
-    is done; with ``collect``, only read the rows back from the run folders already there
-    (their wall time and peak memory unknown)."""
+    is done (the runs themselves in ``work``); with ``collect``, only read the rows back from
+    the run folders already in ``work`` (their wall time and peak memory unknown)."""
     import math
 
     import numpy as np
 
-    (out / "runs").mkdir(parents=True, exist_ok=True)
+    work.mkdir(parents=True, exist_ok=True)
     for case in cases:
         rows = []
         if collect:
-            started = [(None, out / "runs" / f"{case}-{nonlinear}", None) for nonlinear in ("altmin", "newton")]
+            started = [(None, work / f"{case}-{nonlinear}", None) for nonlinear in ("altmin", "newton")]
             measured = [(math.nan, math.nan)] * 2
         else:
-            started = [_start(case, nonlinear, quick, out) for nonlinear in ("altmin", "newton")]
+            started = [_start(case, nonlinear, quick, work) for nonlinear in ("altmin", "newton")]
             measured = _wait(started)
         pair = []
         for (process, folder, _), (wall, peak), nonlinear in zip(started, measured, ("altmin", "newton")):
@@ -315,6 +318,8 @@ def main(argv=None):
     parser.add_argument("--collect", action="store_true",
                         help="part 2: read the rows back from the run folders of --out without running")
     parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument("--work", type=Path, default=WORK,
+                        help="part 2: where the runs' folders go (results files of hundreds of MB)")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -328,7 +333,7 @@ def main(argv=None):
         rows = json.loads(next(line for line in done.stdout.splitlines() if line.startswith("RESULT "))[7:])
         merge_csv(args.out / "newton_nucleation.csv", rows, NUCLEATION_FIELDS, key="id")
     if args.part in ("runs", "all"):
-        runs(args.cases, args.quick, args.out, collect=args.collect)
+        runs(args.cases, args.quick, args.out, args.work, collect=args.collect)
     write_markdown(args.out)
 
 

@@ -78,8 +78,6 @@ class NewtonResult:
         ``"linear solve"`` or ``"max steps"``.
     steps : int
         Newton steps accepted.
-    factorizations : int
-        Factorizations of the reduced Hessian, the inertia corrections' included.
     rejections : int
         Trial points the line search rejected.
     corrections : int
@@ -97,7 +95,6 @@ class NewtonResult:
     converged: bool = False
     reason: str = ""
     steps: int = 0
-    factorizations: int = 0
     rejections: int = 0
     corrections: int = 0
     kkt: float = math.nan
@@ -136,12 +133,12 @@ def kkt_residual(g_u, g_alpha, load_norm, alpha, lower, damage_diagonal) -> floa
     return max(r_alpha, r_u)
 
 
-def load_norm(model, u_free, alpha, t) -> float:
-    """``||f||``, ``f = -g_u`` at the free dofs held at 0 (the constrained ones at their values
-    at ``t``): the loads and prescribed motions as the free dofs feel them at ``alpha``
-    (exactly, for a split too: the internal force of a displacement is linear in it on each
-    piece and vanishes with it)."""
-    zero = model.u_from_free(np.zeros_like(u_free), t)
+def load_norm(model, n_free, alpha, t) -> float:
+    """``||f||``, ``f = -g_u`` at the ``n_free`` free dofs held at 0 (the constrained ones at
+    their values at ``t``): the loads and prescribed motions as the free dofs feel them at
+    ``alpha`` (exactly, for a split too: the internal force of a displacement is linear in it
+    on each piece and vanishes with it)."""
+    zero = model.u_from_free(np.zeros(n_free), t)
     return float(np.linalg.norm(model.energy_gradient(zero, alpha, t)[0]))
 
 
@@ -151,7 +148,7 @@ def state_kkt(model, u, alpha, lower, t) -> float:
     g_u, g_a = model.energy_gradient(u, alpha, t)
     # before load_norm: a model may rewrite the damage problem's arrays at its next call
     diagonal = model.damage_problem(u, t)[0].diagonal()
-    return kkt_residual(g_u, g_a, load_norm(model, g_u, alpha, t), alpha, lower, diagonal)
+    return kkt_residual(g_u, g_a, load_norm(model, g_u.size, alpha, t), alpha, lower, diagonal)
 
 
 def _free_damage(alpha, lower, g_alpha):
@@ -195,7 +192,8 @@ def newton_minimize(model, u, alpha, lower, t, options, project=None, solver=Non
     for _ in range(options.max_steps + 1):
         g_u, g_a = model.energy_gradient(u, alpha, t)
         K_uu, K_ua, K_aa = model.hessian_blocks(u, alpha, t)
-        result.kkt = kkt_residual(g_u, g_a, load_norm(model, x, alpha, t), alpha, lower, K_aa.diagonal())
+        result.kkt = kkt_residual(g_u, g_a, load_norm(model, x.size, alpha, t), alpha, lower,
+                                  K_aa.diagonal())
         result.residuals.append(result.kkt)
         near = result.kkt <= options.tol
         if near and decrease <= options.energy_tol * abs(energy):
@@ -218,7 +216,6 @@ def newton_minimize(model, u, alpha, lower, t, options, project=None, solver=Non
         try:
             while True:
                 inertia = solver.factor(H, None if delta == 0.0 else delta * shift_scale)
-                result.factorizations += 1
                 if inertia.definite:
                     break
                 if options.indefinite == "altmin":

@@ -16,7 +16,6 @@ The matrix is scaled symmetrically to a unit diagonal before it is factored, ``S
 
 from __future__ import annotations
 
-import ctypes
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,7 +23,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from thinfilm.solvers.linear.base import LinearSolverError
-from thinfilm.solvers.linear.pardiso import new_solver, pardiso_available
+from thinfilm.solvers.linear.pardiso import max_threads, new_solver, pardiso_available, run_phase
 from thinfilm.solvers.work import WORK
 
 __all__ = ["Inertia", "IndefiniteSolver", "DENSE_MAX"]
@@ -65,13 +64,12 @@ class IndefiniteSolver:
 
     Attributes
     ----------
-    analyses, factorizations : int
-        Symbolic analyses (PARDISO) and numeric factorizations done.
+    factorizations : int
+        Numeric factorizations done.
     """
 
     def __init__(self):
         self.pardiso = pardiso_available()
-        self.analyses = 0
         self.factorizations = 0
         self._ps = None
         self._pattern = None
@@ -137,8 +135,7 @@ class IndefiniteSolver:
             self._ps = new_solver()
             self._ps.set_matrix_type(-2)
             self._ps.set_iparm(12, 0)  # CSR input, no transposed solve
-            self._max_threads = self._ps.libmkl.mkl_get_max_threads
-            self._max_threads.restype, self._max_threads.argtypes = ctypes.c_int, []
+            self._max_threads = max_threads(self._ps)
         pattern = (upper.shape[0], upper.indptr, upper.indices)
         threads = int(self._max_threads())
         same = (self._pattern is not None and self._threads == threads and self._pattern[0] == pattern[0]
@@ -147,20 +144,13 @@ class IndefiniteSolver:
         if not same:
             self._ps.free_memory(everything=True)
             self._phase(11, upper)
-            self.analyses += 1
             self._pattern, self._threads = pattern, threads
         self._phase(22, upper)
         iparm = self._ps.iparm  # 0-based: iparm[k] is PARDISO's iparm(k + 1)
         return Inertia(int(iparm[21]), int(iparm[22]), upper.shape[0])
 
     def _phase(self, phase, U, b=None):
-        import pypardiso
-
-        self._ps.set_phase(phase)
-        try:
-            return self._ps._call_pardiso(U, np.zeros(U.shape[0]) if b is None else b)
-        except pypardiso.pardiso_wrapper.PyPardisoError as exc:
-            raise LinearSolverError(f"PARDISO phase {phase} failed: {exc}", kind="indefinite") from exc
+        return run_phase(self._ps, phase, U, np.zeros(U.shape[0]) if b is None else b, "indefinite")
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """``H^-1 b`` with the last factorization, shape ``(n,)``."""
@@ -184,3 +174,9 @@ class IndefiniteSolver:
                 pass
             self._ps = None
             self._pattern = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass

@@ -17,7 +17,8 @@ import scipy.sparse as sp
 
 from thinfilm.solvers.linear.base import LinearSolverError, Pattern
 
-__all__ = ["PardisoBackend", "pardiso_available", "pardiso_reproducible", "new_solver", "MKL_CBWR_ALL",
+__all__ = ["PardisoBackend", "pardiso_available", "pardiso_reproducible", "new_solver", "max_threads", "run_phase",
+           "MKL_CBWR_ALL",
            "MKL_CBWR_BRANCH_OFF", "MKL_CBWR_AUTO"]
 
 
@@ -50,6 +51,29 @@ def new_solver():
     if name and "PYPARDISO_MKL_RT" not in os.environ:
         os.environ["PYPARDISO_MKL_RT"] = name
     return solver
+
+
+def max_threads(solver):
+    """MKL's ``mkl_get_max_threads`` of ``solver``'s library, as a function of no argument.
+
+    PARDISO's symbolic analysis holds only for the thread count it was made with
+    (:class:`PardisoBackend`), so its users compare this count before each factorization.
+    """
+    function = solver.libmkl.mkl_get_max_threads
+    function.restype, function.argtypes = ctypes.c_int, []
+    return function
+
+
+def run_phase(solver, phase, matrix, b, kind):
+    """PARDISO's ``phase`` on ``matrix`` (CSR, upper triangle) and right-hand side ``b``; its
+    failure as a :class:`LinearSolverError` of ``kind``."""
+    import pypardiso
+
+    solver.set_phase(phase)
+    try:
+        return solver._call_pardiso(matrix, b)
+    except pypardiso.pardiso_wrapper.PyPardisoError as exc:
+        raise LinearSolverError(f"PARDISO phase {phase} failed: {exc}", kind=kind) from exc
 
 
 #: MKL's conditional numerical reproducibility branches (``mkl_service.h``): ``MKL_CBWR_Get``
@@ -125,9 +149,6 @@ class PardisoBackend:
     name = "pardiso"
 
     def __init__(self, pattern: Pattern, precision="double"):  # "double" or "single", resolved by DirectSolver
-        import pypardiso
-
-        self._err = pypardiso.pardiso_wrapper.PyPardisoError
         self.ps = new_solver()
         _reproducible(self.ps.libmkl)  # before PARDISO's first call: MKL fixes its branch then
         self.ps.set_iparm(12, 0)  # CSR input, no transposed solve
@@ -150,8 +171,7 @@ class PardisoBackend:
             (np.ones(self.gather.size, dtype=self.dtype), upper.indices.astype(np.int32),
              upper.indptr.astype(np.int32)), shape=upper.shape)
         self.scale = None
-        self._max_threads = self.ps.libmkl.mkl_get_max_threads
-        self._max_threads.restype, self._max_threads.argtypes = ctypes.c_int, []
+        self._max_threads = max_threads(self.ps)
         self._analyse()
 
     def _zeros(self):
@@ -165,12 +185,7 @@ class PardisoBackend:
         self._phase(11, self._zeros())
 
     def _phase(self, phase, b):
-        self.ps.set_phase(phase)
-        try:
-            return self.ps._call_pardiso(self.U, b)
-        except self._err as exc:
-            raise LinearSolverError(f"PARDISO phase {phase} failed: {exc}",
-                                    kind=f"direct:{self.name}") from exc
+        return run_phase(self.ps, phase, self.U, b, f"direct:{self.name}")
 
     def _threads_changed(self):
         """Whether MKL's thread count differs from the analysis's."""
