@@ -45,7 +45,10 @@ def build_mesh(scene):
         If a mesh file's dimension is not the model's.
     """
     g = scene.geometry
-    mesh = specimens.get(g.kind).make(scene.model.dim, scene.mesh.h, scene.mesh.h_coarse, g.options)
+    adapt = scene.mesh.adapt
+    # an adaptive mesh starts uniform, without the band where the crack may run
+    h, h_coarse = (adapt.h_max, adapt.h_max) if adapt is not None else (scene.mesh.h, scene.mesh.h_coarse)
+    mesh = specimens.get(g.kind).make(scene.model.dim, h, h_coarse, g.options)
     if mesh.dim != scene.model.dim:
         raise SceneError(scene.source, "geometry.file", f"= {g.file!r}: a {mesh.dim}D mesh, but model.dim ="
                          f" {scene.model.dim}")
@@ -198,15 +201,25 @@ class FemKind(EvolutionKind):
 
     def setup(self, scene):
         mesh = build_mesh(scene)
-        model = build_model(scene, mesh)
-        m, loads = scene.model, model.loads
+        m, adapt = scene.model, scene.mesh.adapt
+        if adapt is not None:
+            from fem3d.adaptive import AdaptiveModel
+
+            model = AdaptiveModel(mesh, lambda refined: build_model(scene, refined), adapt, at=m.at, Gc=m.Gc, eps=m.eps)
+            sizes_line = (f" adaptive, the first mesh {'from the file' if scene.mesh.measured else f'of h_max = {adapt.h_max:g}'},"
+                          f" refined down to h_min = {adapt.h_min:g} (eps/h_min = {m.eps / adapt.h_min:.3g}) where"
+                          f" alpha >= {adapt.alpha:g} or the energy density >= {adapt.energy:g} of the damage onset")
+        else:
+            model = build_model(scene, mesh)
+            sizes_line = (f" elements of {scene.mesh.h:.4g} where finest (measured: the 5th percentile of their longest"
+                          f" edges; eps/h = {m.eps / scene.mesh.h:.3g}), up to {scene.mesh.h_coarse:.4g}"
+                          if scene.mesh.measured else
+                          f" h = {scene.mesh.h:g} where the crack may run (eps/h = {m.eps / scene.mesh.h:.3g}),"
+                          f" {scene.mesh.h_coarse:g} elsewhere")
+        loads = model.loads
         loaded = list(loads.loaded)
         lines = [f"mesh: {mesh.dim}D, {mesh.n_nodes} nodes, {mesh.n_cells} {'triangles' if mesh.dim == 2 else 'tetrahedra'};"
-                 + (f" elements of {scene.mesh.h:.4g} where finest (measured: the 5th percentile of their longest"
-                    f" edges; eps/h = {m.eps / scene.mesh.h:.3g}), up to {scene.mesh.h_coarse:.4g}"
-                    if scene.mesh.measured else
-                    f" h = {scene.mesh.h:g} where the crack may run (eps/h = {m.eps / scene.mesh.h:.3g}),"
-                    f" {scene.mesh.h_coarse:g} elsewhere"),
+                 + sizes_line,
                  f"u-solve: {model.linear_solver.kind}, {m.element}, {model.elasticity.free.size} free dofs;"
                  f" damage held at 0 on {0 if model.damage.fixed_nodes is None else model.damage.fixed_nodes.size}"
                  " nodes"]
@@ -214,6 +227,8 @@ class FemKind(EvolutionKind):
         def observe(u, alpha, t):
             forces = model.forces(u, alpha, t)
             out = {f"force_{group}": forces[group] for group in loaded[1:]}
+            if adapt is not None:
+                out["nodes"], out["cells"] = model.mesh.n_nodes, model.mesh.n_cells
             if loaded:
                 out["force"] = forces[loaded[0]]
                 out["displacement"] = t * loads.displacement_scale[loaded[0]]
@@ -224,12 +239,17 @@ class FemKind(EvolutionKind):
             return out
 
         observables = ((("force", "displacement") if loaded else ()) + tuple(f"force_{g}" for g in loaded[1:])
-                       + (("split_solves", "split_switches") if m.split != "none" else ()))
+                       + (("split_solves", "split_switches") if m.split != "none" else ())
+                       + (("nodes", "cells") if adapt is not None else ()))
         # /mesh is the P1 mesh (the damage's, what the plots and XDMF draw) and what the element
         # adds (P2: its edges); /fields/u holds the vertices' values, then the other nodes'
-        discretization, sizes = model.elasticity.space.description(), {"u": model.elasticity.n_dofs}
+        if adapt is not None:   # P1 (the scene refuses P2): the mesh and its refinement
+            discretization, sizes = model.description(), {}
+        else:
+            discretization, sizes = model.elasticity.space.description(), {"u": model.elasticity.n_dofs}
         return Setup(model=model, discretization=discretization, components={"u": mesh.dim}, sizes=sizes,
-                     observe=observe, observables=observables, log=lines)
+                     observe=observe, observables=observables, log=lines,
+                     adaptive=model if adapt is not None else None)
 
     def parameters(self, scene):
         m, g = scene.model, scene.geometry
@@ -240,7 +260,11 @@ class FemKind(EvolutionKind):
                 "front_width": front_width, "a0": a0,
                 "element": m.element,
                 "geometry": g.kind, **({"file": g.file} if g.file else {}), "h": scene.mesh.h,
-                "h_coarse": scene.mesh.h_coarse, "t_max": scene.load.t_max, "steps": scene.load.steps,
+                "h_coarse": scene.mesh.h_coarse,
+                **({"adapt": True, "h_min": scene.mesh.adapt.h_min, "h_max": scene.mesh.adapt.h_max,
+                    "adapt_alpha": scene.mesh.adapt.alpha, "adapt_energy": scene.mesh.adapt.energy}
+                   if scene.mesh.adapt is not None else {}),
+                "t_max": scene.load.t_max, "steps": scene.load.steps,
                 "loaded": ",".join(scene.load.loaded), "proportional": scene.load.proportional,
                 **({"snapshots": scene.snapshots} if scene.snapshots else {}),
                 **({"reference": scene.reference} if scene.reference else {}),

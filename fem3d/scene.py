@@ -27,6 +27,9 @@ the whole slab, not per unit thickness. ::
     [mesh]
     h = 0.625               # size where the crack may run
     h_coarse = 12.5         # size elsewhere
+    # or: a uniform first mesh refined where the crack goes (docs/adaptivity.md)
+    # adapt = true, h_min = 0.625, h_max = 12.5, adapt_alpha = 0.01, adapt_energy = 0.5,
+    # adapt_buffer = 6.25
 
     [load]
     t_max = 0.4             # or t = [0.0, 0.1, ...], an explicit list of loads
@@ -142,14 +145,50 @@ class Geometry:
 
 
 @dataclass(frozen=True)
+class AdaptOptions:
+    """``[mesh] adapt = true``: a uniform first mesh refined where the crack goes
+    (:mod:`fem3d.adaptive`, docs/adaptivity.md).
+
+    Attributes
+    ----------
+    h_min : float
+        Smallest cell the refinement makes (its longest edge; length).
+    h_max : float
+        Element size of the first mesh (length).
+    alpha : float
+        Damage at a vertex that marks its cells, in (0, 1].
+    energy : float
+        Fraction of the damage-onset energy density (:func:`fem3d.adaptive.onset_density`)
+        at which a cell's degradable elastic energy density marks it, > 0.
+    buffer : float
+        Distance from a vertex of damage ``alpha`` within which cells are marked too (length).
+    """
+
+    h_min: float
+    h_max: float
+    alpha: float = 0.01
+    energy: float = 0.5
+    buffer: float = 0.0
+
+
+#: Defaults of an adaptive mesh, as fractions or multiples of eps: h_min = eps / 5 (the
+#: banded cases' eps/h), h_max = 4 eps, the buffer about the damage 2 eps.
+ADAPT_H_MIN_PER_EPS = 0.2
+ADAPT_H_MAX_PER_EPS = 4.0
+ADAPT_BUFFER_PER_EPS = 2.0
+
+
+@dataclass(frozen=True)
 class MeshSizes:
     """``[mesh]``: element size ``h`` where the crack may run, ``h_coarse`` elsewhere; for a
     mesh file, its elements' sizes as measured (:func:`fem3d.mesh_check.fine_size`: ``h``,
-    and the largest: ``h_coarse``), ``measured`` True."""
+    and the largest: ``h_coarse``), ``measured`` True. With ``adapt`` (an adaptive mesh),
+    ``h`` is its ``h_min`` and ``h_coarse`` its ``h_max``."""
 
     h: float
     h_coarse: float
     measured: bool = False
+    adapt: AdaptOptions | None = None
 
 
 @dataclass(frozen=True)
@@ -458,22 +497,51 @@ def _sizes(source, data, model, geometry):
     A mesh file's sizes are measured (``h`` may be left out; a declared one must be within
     :data:`H_FACTOR` of the measured one). Then, unless ``mesh.check_eps = false``: ``eps`` at
     least :data:`EPS_PER_H_MIN` ``h`` and at most :data:`EPS_PER_SIZE_MAX` times the
-    specimen's largest side; ``h`` at most half of that side in any case.
+    specimen's largest side; ``h`` at most half of that side in any case. With
+    ``mesh.adapt = true`` (:class:`AdaptOptions`) ``h`` and ``h_coarse`` stand for ``h_min``
+    and ``h_max`` (a banded scene made adaptive keeps its sizes), and a mesh file is the first
+    mesh.
     """
     record = specimens.get(geometry.kind)
-    table = Table(source, "mesh", data.get("mesh", {}), ("h", "h_coarse", "check_eps"))
+    table = Table(source, "mesh", data.get("mesh", {}), ("h", "h_coarse", "check_eps", "adapt", "h_min", "h_max",
+                                                         "adapt_alpha", "adapt_energy", "adapt_buffer"))
     check_eps = table.boolean("check_eps", default=True)
+    adapt = table.boolean("adapt", default=False)
+    for key in ("h_min", "h_max", "adapt_alpha", "adapt_energy", "adapt_buffer") if not adapt else ():
+        if table.has(key):
+            table.fail(key, table.data[key], "is read only with mesh.adapt = true (an adaptive mesh)")
+    if adapt:
+        # a banded scene made adaptive (--set mesh.adapt=true) keeps its sizes: h where the
+        # crack runs becomes the smallest, h_coarse the first mesh's
+        for banded, adaptive in (("h", "h_min"), ("h_coarse", "h_max")):
+            if table.has(banded) and table.has(adaptive):
+                table.fail(adaptive, table.data[adaptive], f"and mesh.{banded} are the same size with mesh.adapt ="
+                           f" true (mesh.{banded} is taken as mesh.{adaptive}): give one of them")
+        if model.element != "P1":
+            raise SceneError(source, "model.element", f'= "{model.element}": mesh.adapt = true needs "P1" (the'
+                             " refinement carries P1 fields exactly)")
     if geometry.file is not None:
         mesh, extent = _mesh_file(source, model, geometry)
         cell_sizes = element_sizes(mesh.points, mesh.cells)
         measured = fine_size(cell_sizes)
-        if table.has("h"):
+        if table.has("h") and not adapt:
             h = table.number("h", minimum=0)
             if not measured / H_FACTOR <= h <= measured * H_FACTOR:
                 table.fail("h", h, f"must be within a factor {H_FACTOR:g} of the mesh file's element size where it is"
                             f" finest, {measured:.4g} (the {FINE_PERCENTILE:g}th percentile of its cells' longest"
                             " edges), or left out to take that")
         sizes = MeshSizes(h=measured, h_coarse=float(cell_sizes.max()), measured=True)
+        if adapt:   # the file is the first mesh: its largest cell is h_max
+            for key in ("h_max", "h_coarse"):
+                if table.has(key):
+                    table.fail(key, table.data[key], "is the mesh file's own largest element with geometry.file and"
+                               " mesh.adapt = true: leave it out")
+            options = _adapt_options(table, model, sizes.h_coarse)
+            sizes = MeshSizes(h=options.h_min, h_coarse=options.h_max, measured=True, adapt=options)
+    elif adapt:
+        options = _adapt_options(table, model, None)
+        sizes = MeshSizes(h=options.h_min, h_coarse=options.h_max, adapt=options)
+        extent = record.extent_of(model.dim, geometry.options)
     else:
         if not table.has("h"):
             table.required("h")
@@ -483,8 +551,14 @@ def _sizes(source, data, model, geometry):
             table.fail("h_coarse", sizes.h_coarse, f"must be >= mesh.h = {h:g}")
         extent = record.extent_of(model.dim, geometry.options)   # None: not known before meshing
     side = math.inf if extent is None else extent.size
+    if sizes.adapt is not None and sizes.adapt.h_max > 0.5 * side and not sizes.measured:
+        table.fail("h_coarse" if table.has("h_coarse") else "h_max", sizes.adapt.h_max, f"must be at most half the specimen's largest side, {side:.4g}: the"
+                   " first mesh would have fewer than two elements across it")
     if sizes.h > 0.5 * side:
-        key, value = ("h", sizes.h) if table.has("h") else ("h_coarse", sizes.h)
+        if sizes.adapt is not None:
+            key, value = ("h" if table.has("h") else "h_min"), sizes.h
+        else:
+            key, value = ("h", sizes.h) if table.has("h") else ("h_coarse", sizes.h)
         table.fail(key, value, f"must be at most half the specimen's largest side, {side:.4g}: the mesh would have"
                     " fewer than two elements across it")
     if check_eps:
@@ -499,6 +573,24 @@ def _sizes(source, data, model, geometry):
                              " profile falls within one element and a crack costs several times Gc; refine the"
                              " mesh, or set mesh.check_eps = false to run it anyway")
     return sizes, extent
+
+
+def _adapt_options(table, model, h_max):
+    """The :class:`AdaptOptions` of ``[mesh]`` (``h_max`` given: a mesh file's own); ``h`` and
+    ``h_coarse`` stand for ``h_min`` and ``h_max``."""
+    key = "h" if table.has("h") else "h_min"
+    h_min = table.number(key, minimum=0, default=ADAPT_H_MIN_PER_EPS * model.eps)
+    if h_max is None:
+        key = "h_coarse" if table.has("h_coarse") else "h_max"
+        h_max = table.number(key, minimum=0, default=ADAPT_H_MAX_PER_EPS * model.eps)
+        if h_max < h_min:
+            table.fail(key, h_max, f"must be >= the smallest size, {h_min:g}")
+    alpha = table.number("adapt_alpha", minimum=0, default=0.01)
+    if alpha > 1.0:
+        table.fail("adapt_alpha", alpha, "must be in (0, 1]: the damage at a vertex that marks its cells")
+    energy = table.number("adapt_energy", minimum=0, default=0.5)
+    buffer = table.number("adapt_buffer", minimum=0, exclusive=False, default=ADAPT_BUFFER_PER_EPS * model.eps)
+    return AdaptOptions(h_min=h_min, h_max=h_max, alpha=alpha, energy=energy, buffer=buffer)
 
 
 def describe_group_error(source, key, name, mesh):

@@ -109,6 +109,11 @@ class Setup:
     observables : tuple of str
     log : list of str
         Lines for the run log (what was built).
+    adaptive : object or None
+        A discretization that refines itself during the run (the model, an
+        :class:`thinfilm.engine.protocol.AdaptiveMesh`): its ``description()`` is each step's
+        mesh, with its :class:`thinfilm.discretization.Refinement`, stored with the step, and
+        ``restore(refinement)`` rebuilds the model on a stored refinement (a resumed run).
     """
 
     model: object
@@ -121,6 +126,7 @@ class Setup:
     observe: Callable | None = None
     observables: tuple = ()
     log: list = field(default_factory=list)
+    adaptive: object | None = None
 
 
 class RunInterrupted(Exception):
@@ -298,6 +304,9 @@ class EvolutionKind:
                                    constant=setup.constant, groups=setup.groups, resume=resume, inputs=inputs)
             writer.write_attribute("threads", json.dumps(governor.record()))
             history = writer.history(all_alpha=scene.solver.backtrack.kind != "none") if resume else []
+            refinement = writer.stored_refinement() if resume else None
+            if setup.adaptive is not None and refinement is not None and refinement.passes:
+                setup.adaptive.restore(refinement)   # the model on the mesh the run had reached
         except OSError as err:
             # a kill leaves the file as it was at its last commit (thinfilm.results.journal):
             # what cannot be read here was damaged otherwise (cut short by a copy, a full disk)
@@ -326,7 +335,8 @@ class EvolutionKind:
         with _StopOnInterrupt() as stop:
             def on_step(record, state):
                 observed = setup.observe(state.u, state.alpha, state.t) if setup.observe else {}
-                writer.write_step(record, state, {**observed, "threads": governor.current})  # the step's
+                mesh = setup.adaptive.description() if setup.adaptive is not None else None
+                writer.write_step(record, state, {**observed, "threads": governor.current}, mesh=mesh)  # the step's
                 governor.update()  # for the next step
                 if stop.requested:
                     raise KeyboardInterrupt

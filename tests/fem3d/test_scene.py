@@ -143,3 +143,37 @@ def test_a_bad_constant_load_names_the_key():
     with pytest.raises(SceneError) as err:
         parse_scene(SCENE + "[load.constant.pressure]\nx = 1.0\n", source="x.toml")
     assert "load.constant.pressure: unknown key" in str(err.value)
+
+
+def test_an_adaptive_mesh_reads_its_sizes_and_thresholds():
+    adaptive = SCENE.replace("h = 5.0\nh_coarse = 25.0", "adapt = true\nh_min = 2.0\nh_max = 20.0\nadapt_alpha = 0.1")
+    a = parse_scene(adaptive).mesh
+    assert (a.h, a.h_coarse) == (2.0, 20.0)
+    assert (a.adapt.h_min, a.adapt.h_max, a.adapt.alpha, a.adapt.energy, a.adapt.buffer) == (2.0, 20.0, 0.1, 0.5, 1.0)
+    # a banded scene made adaptive keeps its sizes; defaults from eps
+    banded = parse_scene(SCENE.replace("[mesh]", "[mesh]\nadapt = true")).mesh.adapt
+    assert (banded.h_min, banded.h_max) == (5.0, 25.0)
+    bare = parse_scene(SCENE.replace("h = 5.0\nh_coarse = 25.0", "adapt = true")).mesh.adapt
+    assert (bare.h_min, bare.h_max, bare.buffer) == (0.1, 2.0, 1.0)   # eps / 5, 4 eps, 2 eps
+    assert parse_scene(SCENE).mesh.adapt is None
+    case = load_case("lpanel", {"mesh.adapt": True}).mesh.adapt
+    assert (case.h_min, case.h_max) == (0.625, 12.5)
+
+
+@pytest.mark.parametrize("change, message", [
+    (("h = 5.0", "h = 5.0\nh_min = 1.0"), "mesh.h_min = 1.0: is read only with mesh.adapt = true"),
+    (("h = 5.0", "adapt = true\nh = 5.0\nh_min = 1.0"), "mesh.h_min = 1.0: and mesh.h are the same size"),
+    (("h = 5.0", 'adapt = true\nh = 5.0\nadapt_alpha = 1.5'), "mesh.adapt_alpha = 1.5: must be in (0, 1]"),
+    (("h = 5.0", "adapt = true\nh = 5.0\nadapt_energy = 0"), "mesh.adapt_energy = 0: must be a positive number"),
+    (("h_coarse = 25.0", "h_coarse = 1.0\nadapt = true"), "mesh.h_coarse = 1.0: must be >= the smallest size, 5"),
+])
+def test_bad_adaptive_meshes_name_the_key(change, message):
+    with pytest.raises(SceneError) as err:
+        parse_scene(SCENE.replace(*change), source="x.toml")
+    assert message in str(err.value) and "\n" not in str(err.value)
+
+
+def test_an_adaptive_mesh_needs_p1():
+    text = SCENE.replace("[mesh]", "[mesh]\nadapt = true").replace("eps = 0.5", 'eps = 0.5\nelement = "P2"')
+    with pytest.raises(SceneError, match='model.element = "P2": mesh.adapt = true needs "P1"'):
+        parse_scene(text, source="x.toml")

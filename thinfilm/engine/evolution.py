@@ -29,7 +29,11 @@ interface :class:`thinfilm.engine.protocol.FractureModel` (the finite-difference
   start a crack where the elastic state is below the damage threshold. After it converges,
   the model proposes trial states (a crack profile inserted at candidate points of the
   sound regions); alternate minimization restarts from each, with irreversibility against
-  the previous step only (a trial crack may heal), and the lowest energy is kept.
+  the previous step only (a trial crack may heal), and the lowest energy is kept;
+* a model that refines its discretization (:class:`thinfilm.engine.protocol.AdaptiveMesh`)
+  is asked to refine around each converged state; while it does, every field the engine
+  holds is carried to the finer discretization and the step is solved again from the
+  transferred state (:meth:`Engine._refine_and_solve`).
 
 The options of each part are declared in :mod:`thinfilm.engine.options`. Every step is
 recorded (:class:`thinfilm.engine.records.StepRecord`); a solver that fails raises
@@ -47,8 +51,8 @@ import numpy as np
 from thinfilm.engine.newton import newton_minimize, state_kkt
 from thinfilm.engine.options import (AltMinOptions, BacktrackOptions, EngineOptions, NewtonOptions, SearchOptions,
                                      StabilityOptions)
-from thinfilm.engine.protocol import (AffineLoad, DamageProjection, EnergyDerivatives, FractureModel, StabilityModes,
-                                      TrialStates)
+from thinfilm.engine.protocol import (AdaptiveMesh, AffineLoad, DamageProjection, EnergyDerivatives, FractureModel,
+                                      StabilityModes, TrialStates)
 from thinfilm.engine.records import State, StepRecord
 from thinfilm.solvers.boxqp import solve_box_qp
 from thinfilm.solvers.errors import SolverError
@@ -133,6 +137,7 @@ class Engine:
         self.model, self.altmin, self.backtrack, self.search = model, altmin, backtrack, search
         self.stability = stability
         self._projection = model if isinstance(model, DamageProjection) else None
+        self._adaptive = model if isinstance(model, AdaptiveMesh) else None
         # u of the last solve and the alpha/t it was computed for: with a proportional load
         # and unchanged alpha the next u is a multiple of it, no solve needed.
         self._u_cache = None
@@ -568,6 +573,44 @@ class Engine:
                     best_alpha, best_total = alpha, total
         return best_alpha
 
+    # -- a discretization that refines itself ----------------------------------------------
+    def _refine_and_solve(self, state, t, step, record, states, alpha_prev):
+        """The corrector passes of step ``step`` (:class:`AdaptiveMesh`): while the model
+        refines around the converged ``state``, carry the earlier steps' states (in place in
+        ``states``), the damage before the first step and the state to the new
+        discretization, and solve the step again from the transferred state, with its
+        search and stability check. The transfer is exact for nested P1 fields, so the
+        transferred state starts where the coarse one ended: the front that crossed coarse
+        elements is not sent back to the step's start.
+
+        Returns
+        -------
+        state : State
+            The step's state on the final discretization.
+        alpha_prev : ndarray
+            The damage before the first step, transferred.
+        """
+        while True:
+            transfer = self._adaptive.refine(state.u, state.alpha, t)
+            if transfer is None:
+                return state, alpha_prev
+            record.refinements += 1
+            for k, s in enumerate(states):
+                states[k] = State(s.t, None if s.u is None else transfer.u(s.u),
+                                  None if s.alpha is None else transfer.alpha(s.alpha), s.elastic, s.surface,
+                                  s.u_rescalable)
+            alpha_prev = transfer.alpha(alpha_prev)
+            lower = alpha_prev if step == 0 else states[step - 1].alpha
+            self._u_cache = None   # a solve on the old discretization
+            if self.newton_solver is not None:
+                self.newton_solver = IndefiniteSolver()
+            state = self.alternate_minimization(t, transfer.alpha(state.alpha), lower, transfer.u(state.u), record,
+                                                step, history=states[:step])
+            if self.search.enabled and t > 0:
+                state = self._search(state, lower, record, step)
+            if self.stability.enabled and t > 0:
+                state = self._leave_saddles(state, lower, record, step)
+
     # -- the evolution --------------------------------------------------------------------
     @staticmethod
     def _warm_start(state, t_values, i):
@@ -643,6 +686,9 @@ class Engine:
                     state = self._search(state, lower, record, i)
                 if self.stability.enabled and t > 0:
                     state = self._leave_saddles(state, lower, record, i)
+                if self._adaptive is not None:
+                    state, alpha_prev = self._refine_and_solve(state, t, i, record, states, alpha_prev)
+                    lower = alpha_prev if i == 0 else states[i - 1].alpha
                 if self.backtrack.kind != "none":
                     moved = None
                     for k in range(i):

@@ -5,7 +5,7 @@ any object with the attributes and methods of :class:`FractureModel`; the finite
 film (:class:`thinfilm.plate.model.PlateModel`) is one, a finite-element solid another, and
 ``examples/bar/model.py`` the smallest, a 1D bar written to be copied (``examples/README.md``).
 
-Five hooks are optional, each a protocol of its own that the engine recognizes with
+Six hooks are optional, each a protocol of its own that the engine recognizes with
 ``isinstance`` (they are ``runtime_checkable``):
 
 * :class:`AffineLoad`, for backtracking under a load with a constant part (not proportional);
@@ -15,7 +15,9 @@ Five hooks are optional, each a protocol of its own that the engine recognizes w
   (the symmetric fields of a film restricted to a mirror group);
 * :class:`EnergyDerivatives`, the gradient and the Hessian blocks of the energy in
   ``(u, alpha)`` on the free dofs, needed by the Newton method on both fields
-  (:mod:`thinfilm.engine.newton`).
+  (:mod:`thinfilm.engine.newton`);
+* :class:`AdaptiveMesh`, a model whose discretization refines itself around a converged state
+  (the finite elements' adaptive mesh), each step then solved again on the finer one.
 
 A model's ``solve_u`` that fails raises :class:`thinfilm.solvers.errors.SolverError` (every
 solver of the toolkit does); the engine turns it into an
@@ -28,7 +30,8 @@ from typing import Protocol, Sequence, runtime_checkable
 
 import numpy as np
 
-__all__ = ["FractureModel", "AffineLoad", "TrialStates", "StabilityModes", "DamageProjection", "EnergyDerivatives"]
+__all__ = ["FractureModel", "AffineLoad", "TrialStates", "StabilityModes", "DamageProjection", "EnergyDerivatives",
+           "AdaptiveMesh", "FieldTransfer"]
 
 
 @runtime_checkable
@@ -150,3 +153,32 @@ class EnergyDerivatives(Protocol):
         """``(K_uu, K_ua, K_aa)``, sparse: ``d2E/du_free^2``, shape ``(n_u_free, n_u_free)``;
         ``d2E/du_free dalpha``, shape ``(n_u_free, n_alpha)``; ``d2E/dalpha^2``, shape
         ``(n_alpha, n_alpha)``. Fresh matrices, owned by the caller."""
+
+
+class FieldTransfer(Protocol):
+    """The exact transfer of a model's fields from its discretization before a refinement to
+    the one after it."""
+
+    def alpha(self, values: np.ndarray) -> np.ndarray:
+        """A damage-like field (a damage, a bound), shape ``(n_alpha_before,)`` ->
+        ``(n_alpha_after,)``."""
+
+    def u(self, values: np.ndarray) -> np.ndarray:
+        """A displacement, shape ``(n_u_before,)`` -> ``(n_u_after,)``."""
+
+
+@runtime_checkable
+class AdaptiveMesh(Protocol):
+    """A model whose discretization refines itself around a converged state.
+
+    After each load step has converged (and after its search and stability check) the
+    engine calls :meth:`refine`; while it returns a transfer, the engine carries every field
+    it holds (the states of earlier steps, the bounds, the converged state) to the new
+    discretization and solves the step again from the transferred state (a
+    predictor-corrector step). The model's sizes (``n_alpha``, its ``u``) change with it.
+    """
+
+    def refine(self, u: np.ndarray, alpha: np.ndarray, t: float) -> FieldTransfer | None:
+        """Refine around the state ``(u, alpha)`` at load ``t``: None if nothing is to be
+        refined, else the model now lives on the finer discretization and the transfer of
+        fields to it is returned."""

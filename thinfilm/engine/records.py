@@ -72,6 +72,9 @@ class StepRecord:
         The scaled KKT residual of the kept state (:func:`thinfilm.engine.newton.state_kkt`:
         the larger of the damage's, in units of damage, and the displacement's relative
         residual); NaN for a model without :class:`thinfilm.engine.protocol.EnergyDerivatives`.
+    refinements : int
+        Corrector passes of the step: times the model refined its discretization around the
+        converged state and the step was solved again (:class:`thinfilm.engine.protocol.AdaptiveMesh`).
     energy_history : list of float
         Total energy after every half-step of alternate minimization (non-increasing).
     """
@@ -105,6 +108,7 @@ class StepRecord:
     linear_solves: int = 0
     factorizations: int = 0
     kkt_final: float = math.nan
+    refinements: int = 0
     energy_history: list = field(default_factory=list)
 
 
