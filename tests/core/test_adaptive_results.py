@@ -79,6 +79,16 @@ def test_prolongation_refuses_a_mesh_not_in_the_refinement():
         prolong(np.zeros(5), refinement, 7)
 
 
+def test_a_refinement_is_checked_when_made():
+    first = Refinement.initial(4)
+    assert first.passes == 0 and first.n_nodes == 4 and first.parents.tolist() == [[-1, -1]] * 4
+    with pytest.raises(ValueError, match="a refinement of 1 passes needs 2 entries in pass_nodes"):
+        Refinement(np.full((5, 2), -1), [5], (np.array([0]),))
+    with pytest.raises(ValueError, match="must be non-decreasing and end at the 5 rows of parents"):
+        Refinement(np.full((5, 2), -1), [4, 6], (np.array([0]),))
+    assert SimplexMesh(np.zeros((4, 2)), np.zeros((1, 3), dtype=int)).version == 0
+
+
 def test_the_hand_made_meshes_are_nested_and_conforming():
     for meshes in (square_meshes(), tetrahedra_meshes()):
         for coarse, fine in zip(meshes, meshes[1:]):

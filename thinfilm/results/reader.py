@@ -207,6 +207,8 @@ class Results:
         step's: :meth:`discretization_at`).
     adaptive : bool
         The mesh was refined during the run (``/meshes``).
+    meshes : thinfilm.discretization.StoredMeshes or None
+        The run's meshes, if it refined them.
     steps : dict of ndarray, each shape (n,)
         ``/steps/*`` cut to the finished steps.
     parameters, attrs : dict

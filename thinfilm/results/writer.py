@@ -60,7 +60,7 @@ import numba
 import numpy as np
 
 from thinfilm import __version__
-from thinfilm.discretization import StoredMeshes, prolong
+from thinfilm.discretization import Refinement, SimplexMesh, StoredMeshes, prolong
 from thinfilm.results.journal import JournaledFile, JournalError, journal_path
 from thinfilm.results.reader import FORMAT, FORMAT_VERSION, attrs_dict, finished_steps, open_committed
 from thinfilm.resume import INPUTS_ATTRIBUTE, ResumeError, check_inputs, check_resume
@@ -177,8 +177,10 @@ class ResultsWriter:
         (:func:`thinfilm.resume.check_resume`), from the same input files
         (:func:`thinfilm.resume.check_inputs`), on as many nodes; all checked on the file as
         it stood at its last commit before it is opened for writing, so a refused scene leaves
-        it as it was. A file of a refined mesh is resumed with the run's first mesh (``/mesh``). The root's scene attributes and ``/parameters`` then take the new
-        scene's, and an extension is recorded in the root attribute ``extended``.
+        it as it was. The root's scene attributes and ``/parameters`` then take the new
+        scene's, and an extension is recorded in the root attribute ``extended``. A file of a
+        refined mesh is resumed with the run's first mesh (``/mesh``) as ``discretization``, and
+        the run goes on on its current mesh (:meth:`stored_refinement`, :meth:`history`).
     inputs : dict, optional
         The SHA-256 of the files the scene reads (:func:`thinfilm.resume.input_digests`),
         stored in the root attribute ``inputs`` (JSON).
@@ -409,8 +411,6 @@ class ResultsWriter:
 
     def _first_mesh(self):
         """The run's first mesh as the file stores it (``/mesh``), version 0."""
-        from thinfilm.discretization import Refinement, SimplexMesh
-
         first = SimplexMesh.read(self.file["mesh"])
         return SimplexMesh(first.points, first.cells, Refinement.initial(first.n_nodes))
 
