@@ -12,6 +12,9 @@ on the triangles at chosen loads):
   from three sides, and ``alpha_slices.png``, the damage on planes across the thickness
   (exact sections of the P1 field: each cut tetrahedron contributes the polygon where the
   plane meets it, coloured by the interpolated damage).
+
+Each figure of a step draws it on the mesh it was computed on
+(:meth:`thinfilm.results.reader.Results.discretization_at`: a mesh refined during the run).
 """
 
 from __future__ import annotations
@@ -95,7 +98,7 @@ def release_rate_figure(res, outdir, G, a):
 def crack_surface_figure(res, outdir):
     """``crack_surface.png``: the broken nodes of the last finished step, three views."""
     path = Path(outdir) / "crack_surface.png"
-    points = res.discretization.points
+    points = res.discretization_at(res.n - 1).points
     alpha = res.field("alpha", res.n - 1)
     broken = alpha >= BROKEN
     low, high = points.min(axis=0), points.max(axis=0)
@@ -172,7 +175,7 @@ def slice_polygons(points, cells, values, axis, level):
 def alpha_slices_figure(res, outdir, count=3):
     """``alpha_slices.png``: the damage of the last finished step on ``count`` planes z = const."""
     path = Path(outdir) / "alpha_slices.png"
-    d = res.discretization
+    d = res.discretization_at(res.n - 1)
     alpha = res.field("alpha", res.n - 1)
     z0, z1 = d.points[:, 2].min(), d.points[:, 2].max()
     levels = z0 + (z1 - z0) * (np.arange(count) + 0.5) / count
@@ -227,8 +230,8 @@ def crack_sections_figure(res, path, levels, xlim=None, ylim=None, step=None, wi
     from fem3d.cracks import trace_angles
 
     path = Path(path)
-    d = res.discretization
     k = res.n - 1 if step is None else int(step)
+    d = res.discretization_at(k)
     alpha = res.field("alpha", k)
     low, high = d.points.min(axis=0), d.points.max(axis=0)
     xlim = (low[0], high[0]) if xlim is None else xlim

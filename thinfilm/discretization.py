@@ -8,6 +8,12 @@ read back from it alone:
 * :class:`SimplexMesh`: the vertices and cells of a mesh of segments, triangles or tetrahedra
   (P1 finite elements), stored in ``/mesh``.
 
+A mesh refined during a run (adaptive refinement by nested bisection) is a :class:`SimplexMesh`
+with a :class:`Refinement`: how it was made from the run's first mesh, pass by pass, each new
+vertex the midpoint of an edge of the mesh before. :func:`prolong` carries a P1 field from an
+earlier mesh of the run to a later one, and :class:`StoredMeshes` keeps every mesh of a run in
+``/meshes`` of its results file (``docs/results.md#meshes-that-change-during-a-run``).
+
 Nodal fields are flat arrays of ``n_nodes * components`` values, node by node (a vector field
 ``u`` of a 2D mesh is ``u_x, u_y`` of node 0, then of node 1...). Each description knows how
 to write and read itself (:meth:`write`, :func:`read`), its XDMF topology and geometry
@@ -21,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["StructuredGrid", "SimplexMesh", "read", "GROUPS"]
+__all__ = ["StructuredGrid", "SimplexMesh", "Refinement", "StoredMeshes", "prolong", "read", "GROUPS"]
 
 
 def _numbers(values):
@@ -142,6 +148,123 @@ class StructuredGrid:
         return dims
 
 
+@dataclass(frozen=True, eq=False)
+class Refinement:
+    """How a mesh was made from the run's first mesh by nested refinement passes.
+
+    Each pass appends its new vertices after the existing ones (existing vertices keep their
+    numbers), each new vertex the midpoint of an edge of the mesh before the pass.
+
+    Attributes
+    ----------
+    parents : ndarray of int64, shape (n_nodes, 2)
+        Vertex ``i`` made by a pass is the midpoint of vertices ``parents[i]``, both older than
+        that pass; rows of the first mesh's vertices are ``(-1, -1)``.
+    pass_nodes : ndarray of int64, shape (passes + 1,)
+        Number of vertices after each pass: ``pass_nodes[0]`` is the first mesh's,
+        ``pass_nodes[-1] = n_nodes``.
+    marked : tuple of ndarray of int64
+        One array per pass: the cells marked at that pass (indices into the cells of the mesh
+        before it).
+    """
+
+    parents: np.ndarray
+    pass_nodes: np.ndarray
+    marked: tuple = ()
+
+    def __post_init__(self):
+        parents = np.asarray(self.parents, dtype=np.int64).reshape(-1, 2)
+        pass_nodes = np.atleast_1d(np.asarray(self.pass_nodes, dtype=np.int64))
+        marked = tuple(np.asarray(m, dtype=np.int64).ravel() for m in self.marked)
+        if pass_nodes.ndim != 1 or len(marked) != pass_nodes.size - 1:
+            raise ValueError(f"a refinement of {len(marked)} passes needs {len(marked) + 1} entries in pass_nodes,"
+                             f" not {pass_nodes.size}")
+        if pass_nodes[-1] != parents.shape[0] or np.any(np.diff(pass_nodes) < 0):
+            raise ValueError(f"pass_nodes {pass_nodes.tolist()} must be non-decreasing and end at the"
+                             f" {parents.shape[0]} rows of parents")
+        object.__setattr__(self, "parents", parents)
+        object.__setattr__(self, "pass_nodes", pass_nodes)
+        object.__setattr__(self, "marked", marked)
+
+    @classmethod
+    def initial(cls, n_nodes):
+        """The refinement of a run's first mesh of ``n_nodes`` vertices: no pass yet."""
+        return cls(np.full((int(n_nodes), 2), -1, dtype=np.int64), np.array([n_nodes], dtype=np.int64), ())
+
+    @property
+    def passes(self) -> int:
+        """Refinement passes made; the mesh's version number (0: the run's first mesh)."""
+        return len(self.marked)
+
+    @property
+    def n_nodes(self) -> int:
+        return int(self.pass_nodes[-1])
+
+    def truncated(self, passes):
+        """The refinement after its first ``passes`` passes (an earlier version of the mesh)."""
+        if not 0 <= passes <= self.passes:
+            raise ValueError(f"version {passes}: the refinement has versions 0 to {self.passes}")
+        n = int(self.pass_nodes[passes])
+        return Refinement(self.parents[:n], self.pass_nodes[: passes + 1], self.marked[:passes])
+
+    def extends(self, other) -> bool:
+        """True if this refinement is ``other`` followed by zero or more passes."""
+        p = other.passes
+        return (p <= self.passes and np.array_equal(self.pass_nodes[: p + 1], other.pass_nodes)
+                and np.array_equal(self.parents[: other.n_nodes], other.parents)
+                and all(np.array_equal(a, b) for a, b in zip(self.marked, other.marked)))
+
+
+def prolong(values, refinement, n_from, components=1):
+    """A P1 nodal field on an earlier mesh of a refinement, carried to its last mesh.
+
+    For each later pass ``p`` in order, ``out[pass_nodes[p-1]:pass_nodes[p]] = 0.5 * (out[a] +
+    out[b])`` with ``(a, b)`` the new vertices' parents, per component, vectorized per pass (the
+    parents of a pass's new vertices are older than the pass, so the order within a pass does
+    not matter). The run computes its prolongations with this function, so that a resumed run
+    reproduces them bit for bit.
+
+    Parameters
+    ----------
+    values : array_like, shape (n_from * components,)
+        The field, flat (node by node).
+    refinement : Refinement
+    n_from : int
+        Vertices of the mesh the field lives on: one of ``refinement.pass_nodes``.
+    components : int, optional
+        Values per node.
+
+    Returns
+    -------
+    ndarray of float64, shape (refinement.n_nodes * components,)
+        A new array; its first ``n_from * components`` values are ``values``.
+
+    Raises
+    ------
+    ValueError
+        If ``n_from`` is no mesh of the refinement, or ``values`` has not ``n_from * components``
+        values.
+    """
+    values = np.asarray(values, dtype=np.float64).ravel()
+    pass_nodes = refinement.pass_nodes
+    found = np.flatnonzero(pass_nodes == n_from)
+    if not found.size:
+        raise ValueError(f"n_from = {n_from}: not a mesh of the refinement (its vertex counts:"
+                         f" {pass_nodes.tolist()})")
+    if values.size != n_from * components:
+        raise ValueError(f"{values.size} values: a field of {components} per node on {n_from} vertices has"
+                         f" {n_from * components}")
+    out = np.empty(refinement.n_nodes * components, dtype=np.float64)
+    out[: values.size] = values
+    nodal = out.reshape(-1, components)
+    parents = refinement.parents
+    for p in range(int(found[-1]) + 1, pass_nodes.size):
+        start, stop = int(pass_nodes[p - 1]), int(pass_nodes[p])
+        a, b = parents[start:stop, 0], parents[start:stop, 1]
+        nodal[start:stop] = 0.5 * (nodal[a] + nodal[b])
+    return out
+
+
 #: XDMF topology and cell name of each simplex dimension.
 _SIMPLICES = {1: ("Polyline", "segments"), 2: ("Triangle", "triangles"), 3: ("Tetrahedron", "tetrahedra")}
 
@@ -156,10 +279,14 @@ class SimplexMesh:
         Vertex coordinates (the model's length unit).
     cells : ndarray of int, shape (n_cells, dim + 1)
         Vertex indices of each cell.
+    refinement : Refinement or None
+        How the mesh was made from the run's first mesh (a mesh refined during the run); None
+        for a mesh that stays as it is.
     """
 
     points: np.ndarray
     cells: np.ndarray
+    refinement: Refinement | None = None
 
     group = "mesh"
 
@@ -174,6 +301,12 @@ class SimplexMesh:
     @property
     def shape(self):
         return (self.n_nodes,)
+
+    @property
+    def version(self) -> int:
+        """The number of refinement passes that made this mesh (0: the run's first mesh, or a
+        mesh without a refinement)."""
+        return 0 if self.refinement is None else self.refinement.passes
 
     def shaped(self, values, components=1):
         """A flat nodal field: shape ``(n_nodes,)`` or ``(n_nodes, components)``."""
@@ -214,6 +347,182 @@ class SimplexMesh:
                              Precision="8", Format="HDF")
         item.text = f"{reference}:/mesh/points"
         return (self.n_nodes,)
+
+
+class StoredMeshes:
+    """Every mesh of a run whose mesh is refined as it goes, in ``/meshes`` of its results file.
+
+    The meshes are nested: each version ``v`` (made by ``v`` refinement passes from the first
+    mesh, which ``/mesh`` holds too) has the first ``pass_nodes[v]`` vertices of the last one,
+    so the vertices are stored once, in the order they were made, with the passes that made
+    them; the cells of each version a step was computed on are stored whole::
+
+        /meshes            attrs dim, cell_type
+        /meshes/points     (N, max(dim, 2)) every vertex ever made (zero columns to two)
+        /meshes/parents    (N, 2) int64: the edge each vertex is the midpoint of ((-1, -1): the
+                           first mesh's)
+        /meshes/pass_nodes (passes + 1,) int64: vertices after each pass
+        /meshes/marked     int64: the cells marked at every pass, one pass after the other,
+        /meshes/marked_offsets (passes + 1,) int64: pass p's in marked[offsets[p]:offsets[p+1]]
+        /meshes/cells_<v>  (n_cells, dim + 1) int64: the cells of version v
+
+    The datasets only grow (versions are appended, never removed), so a step that adds a
+    version appends to them and writes its cells, in the same commit as its fields.
+
+    Parameters
+    ----------
+    group : h5py.Group
+        ``/meshes`` of an open file (:meth:`create` makes it).
+    """
+
+    group_name = "meshes"
+
+    def __init__(self, group):
+        self.group = group
+        self.dim = int(group.attrs["dim"])
+
+    @classmethod
+    def of(cls, f):
+        """The stored meshes of an open results file, or None (a mesh that does not change, or a grid)."""
+        return cls(f[cls.group_name]) if cls.group_name in f else None
+
+    @classmethod
+    def create(cls, f, mesh):
+        """``/meshes`` of a new results file, holding the run's first mesh ``mesh`` (version 0;
+        its cells are written with the first step computed on it)."""
+        if mesh.version != 0:
+            raise ValueError(f"the first mesh of a run is version 0, not {mesh.version}")
+        g = f.create_group(cls.group_name)
+        g.attrs.update({"dim": mesh.dim, "cell_type": _SIMPLICES[mesh.dim][0].lower()})
+        columns = max(mesh.dim, 2)
+        points = np.zeros((mesh.n_nodes, columns))
+        points[:, : mesh.dim] = mesh.points
+        g.create_dataset("points", data=points, maxshape=(None, columns), chunks=(4096, columns))
+        g.create_dataset("parents", data=np.full((mesh.n_nodes, 2), -1, dtype=np.int64), maxshape=(None, 2),
+                         chunks=(8192, 2), compression="gzip", shuffle=True)
+        for name, values in (("pass_nodes", [mesh.n_nodes]), ("marked_offsets", [0])):
+            g.create_dataset(name, data=np.array(values, dtype=np.int64), maxshape=(None,), chunks=(64,))
+        g.create_dataset("marked", shape=(0,), maxshape=(None,), dtype=np.int64, chunks=(8192,),
+                         compression="gzip", shuffle=True)
+        return cls(g)
+
+    @property
+    def pass_nodes(self):
+        """Vertices of each stored version, shape (versions,)."""
+        return self.group["pass_nodes"][()]
+
+    @property
+    def versions(self) -> int:
+        """Versions stored (0 to ``versions - 1``)."""
+        return int(self.group["pass_nodes"].shape[0])
+
+    def n_nodes(self, version):
+        return int(self.group["pass_nodes"][version])
+
+    @property
+    def cell_name(self):
+        """``"segments"``, ``"triangles"`` or ``"tetrahedra"``."""
+        return _SIMPLICES[self.dim][1]
+
+    def n_cells(self, version):
+        """Cells of a version a step was computed on."""
+        return int(self.group[f"cells_{int(version)}"].shape[0])
+
+    def has_cells(self, version) -> bool:
+        return f"cells_{int(version)}" in self.group
+
+    def refinement(self, version=None):
+        """The :class:`Refinement` of a stored version (default: the largest, the run's
+        current mesh)."""
+        g = self.group
+        v = self.versions - 1 if version is None else int(version)
+        if not 0 <= v < self.versions:
+            raise ValueError(f"version {v}: the file stores versions 0 to {self.versions - 1}")
+        pass_nodes = g["pass_nodes"][: v + 1]
+        offsets = g["marked_offsets"][: v + 1]
+        marked = g["marked"][: offsets[-1]]
+        return Refinement(g["parents"][: pass_nodes[-1]], pass_nodes,
+                          tuple(marked[offsets[p]:offsets[p + 1]] for p in range(v)))
+
+    def mesh(self, version):
+        """The mesh of a version a step was computed on: the first ``pass_nodes[version]`` vertices
+        and ``cells_<version>``, with its refinement."""
+        v = int(version)
+        n = self.n_nodes(v)
+        cells = self.group[f"cells_{v}"][()]
+        return SimplexMesh(self.group["points"][:n, : self.dim], cells, self.refinement(v))
+
+    def store(self, mesh):
+        """Make ``mesh``'s version stored: append the passes the file does not hold yet, and its
+        cells if they are not stored; returns its version.
+
+        Raises
+        ------
+        ValueError
+            If ``mesh`` has no refinement, or its refinement does not extend the stored passes.
+        """
+        refinement = mesh.refinement
+        if refinement is None:
+            raise ValueError("a mesh without a refinement cannot be stored among a run's refined meshes")
+        if refinement.n_nodes != mesh.n_nodes:
+            raise ValueError(f"the refinement has {refinement.n_nodes} vertices, the mesh {mesh.n_nodes}")
+        g = self.group
+        v, stored = refinement.passes, self.versions - 1
+        old = self.pass_nodes
+        common = min(v, stored)
+        if not np.array_equal(refinement.pass_nodes[: common + 1], old[: common + 1]):
+            raise ValueError(f"the mesh's refinement (vertices after each pass {refinement.pass_nodes.tolist()}) does"
+                             f" not extend the stored one ({old.tolist()}): passes can only be appended")
+        if v > stored:
+            start, stop = int(old[-1]), mesh.n_nodes
+            points = g["points"]
+            points.resize((stop, points.shape[1]))
+            points[start:stop, : self.dim] = mesh.points[start:stop]
+            if points.shape[1] > self.dim:
+                points[start:stop, self.dim:] = 0.0
+            parents = g["parents"]
+            parents.resize((stop, 2))
+            parents[start:stop] = refinement.parents[start:stop]
+            new = refinement.marked[stored:v]
+            offsets, marked = g["marked_offsets"], g["marked"]
+            end = int(offsets[-1])
+            sizes = np.cumsum([m.size for m in new]) + end
+            if sizes[-1] > end:
+                marked.resize((int(sizes[-1]),))
+                marked[end:] = np.concatenate(new)
+            for name, values in (("pass_nodes", refinement.pass_nodes[stored + 1:]), ("marked_offsets", sizes)):
+                ds = g[name]
+                ds.resize((v + 1,))
+                ds[stored + 1:] = values
+        if not self.has_cells(v):
+            cells = np.asarray(mesh.cells, dtype=np.int64)
+            g.create_dataset(f"cells_{v}", data=cells, chunks=(min(len(cells), 16384) or 1, cells.shape[1]),
+                             compression="gzip", shuffle=True)
+        return v
+
+    def xdmf(self, grid, reference, version):
+        """Add the topology and geometry of version ``version`` to one time step's ``<Grid>``:
+        ``/meshes/cells_<version>`` and, by hyperslab, the first ``pass_nodes[version]`` rows of
+        ``/meshes/points``; returns the field dimensions for scalar attributes."""
+        g = self.group
+        n = self.n_nodes(version)
+        cells = g[f"cells_{int(version)}"]
+        n_cells, per_cell = cells.shape
+        topology = ET.SubElement(grid, "Topology", TopologyType=_SIMPLICES[self.dim][0],
+                                 NumberOfElements=str(n_cells), **({"NodesPerElement": "2"} if self.dim == 1 else {}))
+        item = ET.SubElement(topology, "DataItem", Dimensions=f"{n_cells} {per_cell}", NumberType="Int",
+                             Precision="8", Format="HDF")
+        item.text = f"{reference}:/{self.group_name}/cells_{int(version)}"
+        rows, columns = g["points"].shape
+        geometry = ET.SubElement(grid, "Geometry", GeometryType="XY" if columns == 2 else "XYZ")
+        slab = ET.SubElement(geometry, "DataItem", ItemType="HyperSlab", Type="HyperSlab",
+                             Dimensions=f"{n} {columns}")
+        selection = ET.SubElement(slab, "DataItem", Dimensions="3 2", NumberType="UInt", Format="XML")
+        selection.text = f"0 0 1 1 {n} {columns}"
+        source = ET.SubElement(slab, "DataItem", Dimensions=f"{rows} {columns}", NumberType="Float", Precision="8",
+                               Format="HDF")
+        source.text = f"{reference}:/{self.group_name}/points"
+        return (n,)
 
 
 #: The HDF5 group of each description, and the dataset that marks it as one.

@@ -306,8 +306,10 @@ def _draw_field(ax, d, values, vmin, vmax, cmap):
 
 
 def image_figure(res, steps, field, values, title):
-    """The figure of images of ``values`` (shape (k, ny+1, nx+1)) at ``steps``, one colour
-    scale and bar, and the kind's overlays (:meth:`thinfilm.run.EvolutionKind.overlay`).
+    """The figure of images of ``values`` (shape (k, ny+1, nx+1); on a mesh, one field per step,
+    each on its step's mesh, :meth:`thinfilm.results.reader.Results.discretization_at`) at
+    ``steps``, one colour scale and bar, and the kind's overlays
+    (:meth:`thinfilm.run.EvolutionKind.overlay`).
 
     The panels are placed explicitly, each exactly of the domain's aspect ratio, instead of
     by constrained layout: the same figure, at a fraction of the drawing time (a layout
@@ -315,7 +317,7 @@ def image_figure(res, steps, field, values, title):
     on every panel, labelled only along the left column and under the bottom panel of each
     column, and few enough of them that neighbouring labels never meet.
     """
-    vmin, vmax, cmap = colour_range(field, values)
+    vmin, vmax, cmap = colour_range(field, _flat(values))
     d = res.discretization
     kind = kinds.get(res.kind)
     aspect = _aspect(d)
@@ -331,7 +333,7 @@ def image_figure(res, steps, field, values, title):
         bottom = _MARGIN_B + (nrows - 1 - row) * (h_box + _GAP_H)
         ax = fig.add_axes((left / W, bottom / H, w / W, h_box / H), sharex=first, sharey=first)
         first = first or ax
-        image = _draw_field(ax, d, values[i], vmin, vmax, cmap)
+        image = _draw_field(ax, res.discretization_at(k), values[i], vmin, vmax, cmap)
         handles += [h for h in kind.overlay(res, ax, float(res.t[k])) if h.get_label() not in
                     [g.get_label() for g in handles]]
         ax.set_title(f"t = {res.t[k]:.4g} (step {k})", fontsize=9, pad=3)
@@ -356,6 +358,11 @@ def image_figure(res, steps, field, values, title):
     fig.colorbar(image, cax=cax, label=_label(res, field))
     fig.suptitle(title, fontsize=10, y=1.0 - 0.12 / H, va="top")
     return fig
+
+
+def _flat(values):
+    """Every value of a list of fields (of one mesh or of several) in one flat array."""
+    return np.concatenate([np.ravel(v) for v in values]) if len(values) else np.zeros(0)
 
 
 def _draw_images(res, steps, field, values, path, title):
@@ -453,13 +460,15 @@ def force_displacement_figure(res, outdir, events=(), reference=None, xlabel="pr
 
 
 def _draw_curves(res, steps, field, values, path, title):
-    """Curves of ``values`` (shape (k, n_nodes)) against x, coloured by load, on one axes."""
-    vmin, vmax, _ = colour_range(field, values)
+    """Curves of ``values`` (one per step, each on its step's nodes) against x, coloured by
+    load, on one axes."""
+    vmin, vmax, _ = colour_range(field, _flat(values))
     fig, ax = line_figure(6.8, 4.2)
     colors = plt.cm.viridis(np.linspace(0.0, 0.9, len(steps)))
-    x, order = _abscissa(res.discretization)
+    x, _ = _abscissa(res.discretization)
     for k, v, color in zip(steps, values, colors):
-        ax.plot(x, v[order], color=color, lw=1.4, label=f"t = {res.t[k]:.4g} (step {k})")
+        xk, order = _abscissa(res.discretization_at(k))
+        ax.plot(xk, v[order], color=color, lw=1.4, label=f"t = {res.t[k]:.4g} (step {k})")
     pad = 0.02 * (vmax - vmin)
     ax.set_xlim(x[0], x[-1])
     ax.set_ylim(vmin - pad, vmax + pad)
@@ -497,7 +506,9 @@ def _snapshots(res, outdir, field, loads=None, count=SNAPSHOTS, path=None, title
     if res.components(field) > 1 or d.dim > 2:
         return None
     steps = snapshot_steps(res.t, loads, count, first=_first_snapshot(res, field))
-    values = np.array([res.field(field, k) for k in steps])
+    values = [res.field(field, k) for k in steps]  # each on its step's mesh (a refined mesh)
+    if not res.adaptive:
+        values = np.array(values)
     path = Path(path) if path is not None else Path(outdir) / f"{field}_snapshots.png"
     if title is None:
         what = _label(res, field).split(" ")[0]
@@ -568,19 +579,34 @@ def _animate(res, outdir, max_frames=MAX_FRAMES, fps=10):
         ax.set_ylabel(_label(res, "alpha"))
 
         def show(k):
-            artist.set_ydata(res.field("alpha", k)[order])
+            if res.adaptive:  # the step's own nodes
+                xk, order_k = _abscissa(res.discretization_at(k))
+                artist.set_data(xk, res.field("alpha", k)[order_k])
+            else:
+                artist.set_ydata(res.field("alpha", k)[order])
     elif d.dim == 2:
         _, _, w, h = _panel_layout(1, _aspect(d))
         fig, ax = plt.subplots(figsize=(w + 1.5, h + 1.2), layout="constrained")
-        artist = _draw_field(ax, d, res.field("alpha", frames[0]), 0.0, 1.0, ALPHA_CMAP)
+        drawn = {"version": res.mesh_version(frames[0]),
+                 "artist": _draw_field(ax, res.discretization_at(frames[0]), res.field("alpha", frames[0]), 0.0, 1.0,
+                                       ALPHA_CMAP)}
+        drawn["artists"] = list(ax.collections)
         ax.set_ylabel(axis_label(res, "y"))
-        fig.colorbar(artist, ax=ax, label=_label(res, "alpha"))
+        fig.colorbar(drawn["artist"], ax=ax, label=_label(res, "alpha"))
 
         def show(k):
             if isinstance(d, StructuredGrid):
-                artist.set_data(res.field("alpha", k))
+                drawn["artist"].set_data(res.field("alpha", k))
+            elif res.mesh_version(k) != drawn["version"]:
+                # a refined mesh: the frame drawn anew on the step's triangles, on the same scale
+                for artist in drawn["artists"]:
+                    artist.remove()
+                drawn["artist"] = _draw_field(ax, res.discretization_at(k), res.field("alpha", k), 0.0, 1.0,
+                                              ALPHA_CMAP)
+                drawn["artists"] = [a for a in ax.collections]
+                drawn["version"] = res.mesh_version(k)
             else:
-                artist.set_array(res.field("alpha", k))
+                drawn["artist"].set_array(res.field("alpha", k))
     else:
         raise ResultsError(f"{res.path}: alpha.gif is drawn for 1D and 2D runs only")
     ax.set_xlabel(axis_label(res, "x"))

@@ -11,8 +11,11 @@ attribute of shape ``(n_nodes, components)``.
 
 The topology and geometry come from the run's discretization
 (:meth:`thinfilm.discretization.StructuredGrid.xdmf`, :meth:`~thinfilm.discretization.SimplexMesh.xdmf`).
-A mesh of triangles or tetrahedra points into ``/mesh/cells`` and ``/mesh/points``. A
-structured grid is a ``3DCoRectMesh`` of one layer in every case:
+A mesh of triangles or tetrahedra points into ``/mesh/cells`` and ``/mesh/points``; a mesh
+refined during the run gives each step the mesh it was computed on
+(:meth:`thinfilm.discretization.StoredMeshes.xdmf`): its topology ``/meshes/cells_<v>``, its
+geometry the first n rows of ``/meshes/points`` (a hyperslab), its attributes the first
+``n * components`` values of the step's row. A structured grid is a ``3DCoRectMesh`` of one layer in every case:
 
 * 2D run: ``Dimensions = "1 ny+1 nx+1"``, origin ``(0, y0, x0)``, spacing ``(hx, hy, hx)``;
 * 1D run: ``Dimensions = "1 1 nx+1"``, origin ``(0, 0, x0)``: a single row of nodes along x.
@@ -90,7 +93,10 @@ def build_xdmf(res, reference):
     for k in range(res.n):
         grid = ET.SubElement(collection, "Grid", Name=f"step {k}", GridType="Uniform")
         ET.SubElement(grid, "Time", Value=repr(float(res.t[k])))
-        dims = res.discretization.xdmf(grid, reference)
+        if res.adaptive:
+            dims = res.meshes.xdmf(grid, reference, res.mesh_version(k))
+        else:
+            dims = res.discretization.xdmf(grid, reference)
         for name, ds in datasets.items():
             rows, n_values = ds.shape
             components = res.components(name)
@@ -109,7 +115,9 @@ def build_xdmf(res, reference):
             source = ET.SubElement(slab, "DataItem", Dimensions=f"{rows} {n_values}", NumberType="Float",
                                    Precision=str(ds.dtype.itemsize), Format="HDF")
             source.text = f"{reference}:/fields/{name}"
-        for name, ds in constant.items():  # a field stored once: the same at every step
+        for name, ds in constant.items():  # a field stored once: the same at every step (of its mesh)
+            if ds.shape[0] != math.prod(dims):
+                continue
             attribute = ET.SubElement(grid, "Attribute", Name=name, AttributeType="Scalar", Center="Node")
             item = ET.SubElement(attribute, "DataItem", Dimensions=_field_dims(dims, 1), NumberType="Float",
                                  Precision=str(ds.dtype.itemsize), Format="HDF")

@@ -262,7 +262,7 @@ class P2Space(Space):
 
     def description(self) -> QuadraticMeshDescription:
         """The mesh as the results file sees it (:class:`QuadraticMeshDescription`)."""
-        return QuadraticMeshDescription(self.mesh.points, self.mesh.cells, self.edges)
+        return QuadraticMeshDescription(self.mesh.points, self.mesh.cells, edges=self.edges)
 
 
 SPACE = P2Space

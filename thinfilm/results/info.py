@@ -40,6 +40,18 @@ def seconds(s):
     return f"{int(s // 3600)} h {int(s % 3600 // 60):02d} min"
 
 
+def _adaptive_line(meshes, versions):
+    """``mesh: adaptive, 7 versions, 1234 -> 5678 nodes; ...``: the meshes of a run refined as it went."""
+    pass_nodes = meshes.pass_nodes
+    line = (f"mesh: adaptive, {len(pass_nodes)} version{'s' if len(pass_nodes) != 1 else ''},"
+            f" {pass_nodes[0]} -> {pass_nodes[-1]} nodes")
+    if len(versions):
+        last = int(versions[-1])
+        line += (f"; the last finished step on version {last} ({pass_nodes[last]} nodes,"
+                 f" {meshes.n_cells(last)} {meshes.cell_name})")
+    return line
+
+
 def describe(path):
     """The report of ``thinfilm info``: scene, versions, progress, last energies, the kind's lines.
 
@@ -83,6 +95,9 @@ def describe(path):
         nodes = discretization.read(f)
         if nodes is not None:
             lines.append(nodes.describe())
+        meshes = discretization.StoredMeshes.of(f)
+        if meshes is not None:
+            lines.append(_adaptive_line(meshes, f["steps"]["mesh"][:n] if "mesh" in f["steps"] else []))
 
         t = steps["t"]
         t_max = params.get("t_max")

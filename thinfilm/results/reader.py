@@ -6,6 +6,10 @@ work from a file alone (``thinfilm plot``, ``thinfilm info``, the XDMF index of
 with files of runs that stopped early: only the **finished steps** (:func:`finished_steps`)
 are read; rows beyond them are an unfinished write and are ignored.
 
+A run whose mesh was refined as it went stores each step's fields on that step's mesh
+(:class:`thinfilm.discretization.StoredMeshes`): :meth:`Results.discretization_at` gives it, and
+:meth:`Results.nodal` and :meth:`Results.field` the step's values on it.
+
 A path that is not a thinfilm results file raises :class:`ResultsError`, whose message is
 one line for the user (the command line prints it and exits with status 2).
 """
@@ -199,7 +203,12 @@ class Results:
     n : int
         Finished steps (see :func:`finished_steps`).
     discretization : StructuredGrid or SimplexMesh
-        The nodes (:mod:`thinfilm.discretization`).
+        The nodes (:mod:`thinfilm.discretization`); of a refined mesh, the run's first mesh (each
+        step's: :meth:`discretization_at`).
+    adaptive : bool
+        The mesh was refined during the run (``/meshes``).
+    meshes : thinfilm.discretization.StoredMeshes or None
+        The run's meshes, if it refined them.
     steps : dict of ndarray, each shape (n,)
         ``/steps/*`` cut to the finished steps.
     parameters, attrs : dict
@@ -219,10 +228,20 @@ class Results:
                 raise ResultsError(f"{self.path}: kind = {self.kind!r} has no nodal fields to read")
             self.n = finished_steps(f)
             self.steps = {name: ds[: self.n] for name, ds in f["steps"].items()}
-            n_values = f["fields/alpha"].shape[1]
-            if n_values != self.discretization.n_nodes:
-                raise ResultsError(f"{self.path}: /fields/alpha has {n_values} nodes per step, the"
-                                   f" {self.discretization.group} has {self.discretization.n_nodes}")
+            self.meshes = discretization.StoredMeshes.of(f)
+            self.adaptive = self.meshes is not None
+            self._versions = {}
+            if self.adaptive:
+                first = self.meshes.n_nodes(0)
+                if "mesh" not in self.steps or first != self.discretization.n_nodes:
+                    raise ResultsError(f"{self.path}: incomplete results of a refined mesh: /steps/mesh"
+                                       f" {'found' if 'mesh' in self.steps else 'missing'}, /meshes begins with"
+                                       f" {first} nodes, /mesh has {self.discretization.n_nodes}")
+            else:
+                n_values = f["fields/alpha"].shape[1]
+                if n_values != self.discretization.n_nodes:
+                    raise ResultsError(f"{self.path}: /fields/alpha has {n_values} nodes per step, the"
+                                       f" {self.discretization.group} has {self.discretization.n_nodes}")
         except KeyError as err:
             f.close()
             raise ResultsError(f"{self.path}: incomplete {self.attrs.get('kind', '')} results: {err}") from None
@@ -249,23 +268,52 @@ class Results:
         """Values per node of field ``name`` (1 for a scalar)."""
         return int(self.file[f"fields/{name}"].attrs.get("components", 1))
 
+    def mesh_version(self, k):
+        """The version of the mesh finished step ``k`` was computed on (the number of refinement
+        passes that made it; always 0 for a mesh that is not refined)."""
+        self._check_step(k)
+        return int(self.steps["mesh"][k]) if self.adaptive else 0
+
+    def discretization_at(self, k):
+        """The discretization finished step ``k`` was computed on: its refined mesh (with its
+        :class:`~thinfilm.discretization.Refinement`), read once per version; for a
+        discretization that does not change, :attr:`discretization`."""
+        version = self.mesh_version(k)
+        if not self.adaptive:
+            return self.discretization
+        if version not in self._versions:
+            self._versions[version] = self.meshes.mesh(version)
+        return self._versions[version]
+
+    def refinement_at(self, k):
+        """The :class:`~thinfilm.discretization.Refinement` of step ``k``'s mesh (None for a mesh
+        that is not refined)."""
+        return self.discretization_at(k).refinement if self.adaptive else None
+
+    def _check_step(self, k):
+        if not 0 <= k < self.n:
+            raise IndexError(f"step {k} is not among the {self.n} finished steps")
+
     def nodal(self, name, k=None):
-        """Field ``name`` of finished step ``k`` as stored, flat (a field stored once: ``k`` None)."""
+        """Field ``name`` of finished step ``k`` as stored, flat (a field stored once: ``k`` None);
+        on a refined mesh, the ``n_nodes * components`` values of the step's own mesh."""
         ds = self.file[f"fields/{name}"]
         if k is None:
             return ds[()]
-        if not 0 <= k < self.n:
-            raise IndexError(f"step {k} is not among the {self.n} finished steps")
+        self._check_step(k)
+        if self.adaptive and ds.attrs.get("per_step", ds.ndim == 2):
+            return ds[k, : self.discretization_at(k).n_nodes * self.components(name)]
         return ds[k]
 
     def field(self, name, k=None):
-        """Field ``name`` of finished step ``k`` shaped on the discretization (a grid's
-        ``(ny+1, nx+1)``; a mesh's ``(n_nodes,)`` or ``(n_nodes, components)``). A field stored
-        with more values (a P2 displacement, its edge midpoints' after its nodes') gives its
-        nodes' values."""
+        """Field ``name`` of finished step ``k`` shaped on its discretization (a grid's
+        ``(ny+1, nx+1)``; a mesh's ``(n_nodes,)`` or ``(n_nodes, components)``; on a refined mesh,
+        the step's: :meth:`discretization_at`). A field stored with more values (a P2
+        displacement, its edge midpoints' after its nodes') gives its nodes' values."""
         components = self.components(name)
         values = self.nodal(name, k)
-        return self.discretization.shaped(values[: self.discretization.n_nodes * components], components)
+        d = self.discretization if k is None else self.discretization_at(k)
+        return d.shaped(values[: d.n_nodes * components], components)
 
     def close(self):
         self.file.close()

@@ -24,9 +24,22 @@ driven by the engine, whatever its kind::
     /fields/<name>     a field stored once (e.g. the toughness of an imperfect film), with
                        attr per_step = False
 
+A run whose mesh is refined as it goes (a discretization with a refinement,
+thinfilm.discretization.Refinement) has ``/mesh`` as its first mesh and, besides::
+
+    /meshes            every mesh of the run (thinfilm.discretization.StoredMeshes): points
+                       (N, max(dim, 2)) and parents (N, 2) of every vertex ever made, in order;
+                       pass_nodes (passes + 1,), marked and marked_offsets (the refinement
+                       passes); cells_<v> for each version v a step was computed on
+    /steps/mesh        (n,) int64: the version of each step's mesh
+    /fields/u          (n, width), maxshape (None, None): row k holds its version's
+                       n_nodes * components values first, NaN after them (width: the largest
+                       version's so far)
+    /fields/alpha      (n, width), the same
+
 ``docs/results.md`` describes it for users. A backtrack to step k truncates every per-step
 dataset to k steps before step k is rewritten, so the file always holds the current evolution
-up to its last finished step.
+up to its last finished step; the stored meshes stay (the mesh never coarsens).
 
 The file is made whole under a temporary name and renamed into place, then written step by
 step through a rollback journal (:mod:`thinfilm.results.journal`): each finished step is
@@ -47,6 +60,7 @@ import numba
 import numpy as np
 
 from thinfilm import __version__
+from thinfilm.discretization import Refinement, SimplexMesh, StoredMeshes, prolong
 from thinfilm.results.journal import JournaledFile, JournalError, journal_path
 from thinfilm.results.reader import FORMAT, FORMAT_VERSION, attrs_dict, finished_steps, open_committed
 from thinfilm.resume import INPUTS_ATTRIBUTE, ResumeError, check_inputs, check_resume
@@ -66,7 +80,7 @@ STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_
 INTEGER_STEP_FIELDS = ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials", "trials_accepted",
                        "saddles_left", "u_rescalable", "stopped_by_energy", "threads", "newton_steps",
                        "newton_attempts", "newton_failures", "newton_rejections", "inertia_corrections",
-                       "linear_solves", "factorizations")
+                       "linear_solves", "factorizations", "mesh")
 #: The per-step lists of summary.json (those a file written before they existed lacks are left out).
 SUMMARY_STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "newton_steps", "newton_rejections",
                        "linear_solves", "factorizations", "kkt_final")
@@ -137,14 +151,18 @@ class ResultsWriter:
     parameters : dict
         Attributes of ``/parameters``.
     discretization : StructuredGrid or SimplexMesh
-        Written to ``/grid`` or ``/mesh``.
+        Written to ``/grid`` or ``/mesh``. A mesh with a refinement (the run's first mesh, version
+        0: :class:`thinfilm.discretization.Refinement`) makes a file whose steps may be computed on
+        refined meshes (:meth:`write_step` with ``mesh``): ``/meshes``, ``/steps/mesh``, and
+        field rows of each step's own length (the module docstring).
     components : dict, optional
         Values per node of ``u`` and ``alpha`` (default 1 each; 2 or 3 for a vector ``u``).
     sizes : dict, optional
         Values per step of a field that holds more than ``n_nodes * components`` (a P2
         displacement: its first ``n_nodes * components`` values are those of the nodes, what
         the plots and XDMF read; the rest those of the edge midpoints); default
-        ``n_nodes * components``.
+        ``n_nodes * components``. Not for a refined mesh, whose steps hold ``n_nodes *
+        components`` values of their own mesh.
     observables : sequence of str, optional
         Names of the kind's own per-step values (e.g. a reaction force), stored in
         ``/steps/<name>`` beside the engine's records.
@@ -160,7 +178,9 @@ class ResultsWriter:
         (:func:`thinfilm.resume.check_inputs`), on as many nodes; all checked on the file as
         it stood at its last commit before it is opened for writing, so a refused scene leaves
         it as it was. The root's scene attributes and ``/parameters`` then take the new
-        scene's, and an extension is recorded in the root attribute ``extended``.
+        scene's, and an extension is recorded in the root attribute ``extended``. A file of a
+        refined mesh is resumed with the run's first mesh (``/mesh``) as ``discretization``, and
+        the run goes on on its current mesh (:meth:`stored_refinement`, :meth:`history`).
     inputs : dict, optional
         The SHA-256 of the files the scene reads (:func:`thinfilm.resume.input_digests`),
         stored in the root attribute ``inputs`` (JSON).
@@ -169,6 +189,8 @@ class ResultsWriter:
     ----------
     continuation : thinfilm.resume.Continuation or None
         What a resumed run continues (None for a new file).
+    adaptive : bool
+        The file stores a mesh refined during the run (``/meshes``).
     """
 
     def __init__(self, path, scene, parameters, discretization, *, components=None, observables=(),
@@ -180,6 +202,12 @@ class ResultsWriter:
         constant = constant or {}
         self.continuation = None
         self.inputs = dict(inputs or {})
+        self.adaptive = getattr(discretization, "refinement", None) is not None
+        if self.adaptive:
+            for name, size in (sizes or {}).items():
+                if size != discretization.n_nodes * (components or {}).get(name, 1):
+                    raise ValueError(f"sizes[{name!r}] = {size}: a step on a refined mesh holds n_nodes * components"
+                                     " values of its own mesh")
         if resume:
             # every check on the file as it stood at its last commit, read-only: a refused
             # resume leaves the file (and a killed writer's journal) as they were
@@ -191,7 +219,15 @@ class ResultsWriter:
             with f:
                 self.continuation = check_resume(self.path, attrs_dict(f), scene)
                 check_inputs(self.path, attrs_dict(f).get(INPUTS_ATTRIBUTE), self.inputs)
-                stored = f["fields/alpha"].shape[1] if "fields/alpha" in f else None
+                if (StoredMeshes.group_name in f) != self.adaptive:
+                    written, scene_mesh = ("a mesh refined during the run", "one that is not") if not self.adaptive \
+                        else ("a mesh that is not refined", "one refined during the run")
+                    raise ResumeError(f"{self.path} was written on {written}, the scene has {scene_mesh}; it cannot"
+                                      " be resumed (run with --force to start over)")
+                if self.adaptive:  # the run's first mesh
+                    stored = f["mesh/points"].shape[0]
+                else:
+                    stored = f["fields/alpha"].shape[1] if "fields/alpha" in f else None
                 if stored is not None and stored != (sizes or {}).get("alpha", discretization.n_nodes):
                     raise ResumeError(f"{self.path} was written on {stored} nodes, the scene has"
                                       f" {discretization.n_nodes}; it cannot be resumed (run with --force to start"
@@ -224,16 +260,24 @@ class ResultsWriter:
             for name, attrs in (groups or {}).items():
                 f.create_group(name).attrs.update(attrs)
             discretization.write(f)
+            if self.adaptive:
+                StoredMeshes.create(f, discretization)
             steps = f.create_group("steps")
-            for name in self.step_fields:
+            for name in self.step_fields + (("mesh",) if self.adaptive else ()):
                 self._create_step_dataset(steps, name, 0)
             fields = f.create_group("fields")
             n_nodes = discretization.n_nodes
             for name in ("u", "alpha"):
                 c = (components or {}).get(name, 1)
                 n = (sizes or {}).get(name, n_nodes * c)
-                ds = fields.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype=np.float64,
-                                           chunks=(1, min(n, 1 << 20)))
+                if self.adaptive:
+                    # rows widen as the mesh is refined: chunks of at least 2^14 values, so that a
+                    # first mesh much coarser than the last does not split a row into many chunks
+                    ds = fields.create_dataset(name, shape=(0, n), maxshape=(None, None), dtype=np.float64,
+                                               chunks=(1, min(max(n, 1 << 14), 1 << 20)), fillvalue=np.nan)
+                else:
+                    ds = fields.create_dataset(name, shape=(0, n), maxshape=(None, n), dtype=np.float64,
+                                               chunks=(1, min(n, 1 << 20)))
                 if c > 1:
                     ds.attrs["components"] = c
             for name, values in constant.items():
@@ -294,8 +338,8 @@ class ResultsWriter:
         if n:
             ds[:] = 0 if integer else np.nan
 
-    def write_step(self, record, state, observed=None):
-        """Store step ``record.index`` (truncating any later steps) and flush.
+    def write_step(self, record, state, observed=None, mesh=None):
+        """Store step ``record.index`` (truncating any later steps) and commit.
 
         The fields are written before the step's records, so a step counts as finished
         (``/steps/t`` has it) only once its fields are stored.
@@ -306,18 +350,69 @@ class ResultsWriter:
         state : thinfilm.engine.records.State
         observed : dict, optional
             The kind's observables at this state, ``{name: float}``.
+        mesh : SimplexMesh, optional
+            The mesh the step was computed on, with its refinement (a file of a refined mesh):
+            a version not stored yet is stored with the step, in the same commit
+            (:meth:`thinfilm.discretization.StoredMeshes.store`). Default: the largest stored
+            version. Ignored for a mesh that is not refined.
+
+        Raises
+        ------
+        ValueError
+            A field whose length is not that of the step's mesh, or a refinement that does not
+            extend the stored one.
         """
         k = record.index
         f = self.file
-        for name, values in (("u", state.u), ("alpha", state.alpha)):
-            ds = f["fields"][name]
-            ds.resize((k + 1, ds.shape[1]))
-            ds[k] = values
+        if not self.adaptive:
+            if mesh is not None and getattr(mesh, "refinement", None) is not None:
+                raise ValueError(f"{self.path} stores a mesh that is not refined: a step on a refined mesh cannot be"
+                                 " written into it")
+            for name, values in (("u", state.u), ("alpha", state.alpha)):
+                ds = f["fields"][name]
+                ds.resize((k + 1, ds.shape[1]))
+                ds[k] = values
+        else:
+            version = self._store_mesh(mesh)
+            n_nodes = StoredMeshes.of(f).n_nodes(version)
+            for name, values in (("u", state.u), ("alpha", state.alpha)):
+                ds = f["fields"][name]
+                values = np.asarray(values, dtype=np.float64).ravel()
+                size = n_nodes * int(ds.attrs.get("components", 1))
+                if values.size != size:
+                    raise ValueError(f"step {k}: {name} has {values.size} values, its mesh (version {version},"
+                                     f" {n_nodes} nodes) {size}")
+                width = max(ds.shape[1], size)
+                ds.resize((k + 1, width))
+                row = np.full(width, np.nan)  # the whole row: no value of an earlier write stays behind
+                row[:size] = values
+                ds[k] = row
+            ds = f["steps"]["mesh"]
+            ds.resize((k + 1,))
+            ds[k] = version
         for name in self.step_fields:
             ds = f["steps"][name]
             ds.resize((k + 1,))
             ds[k] = observed[name] if name in self.observables else getattr(record, name)
         self._commit()
+
+    def _store_mesh(self, mesh):
+        """The version of a step's mesh, stored if it is not yet (a file of a refined mesh)."""
+        meshes = StoredMeshes.of(self.file)
+        if mesh is not None:
+            return meshes.store(mesh)
+        version = meshes.versions - 1
+        if not meshes.has_cells(version):
+            if version:
+                raise ValueError(f"{self.path}: version {version} of the mesh has no cells stored; give the step's"
+                                 " mesh")
+            meshes.store(self._first_mesh())
+        return version
+
+    def _first_mesh(self):
+        """The run's first mesh as the file stores it (``/mesh``), version 0."""
+        first = SimplexMesh.read(self.file["mesh"])
+        return SimplexMesh(first.points, first.cells, Refinement.initial(first.n_nodes))
 
     def write_attribute(self, name, value):
         """Set the root attribute ``name`` (a run's circumstances, such as its threads)."""
@@ -349,7 +444,9 @@ class ResultsWriter:
         Returns
         -------
         list of thinfilm.engine.records.State
-            One per finished step; the last one carries ``u``.
+            One per finished step; the last one carries ``u``. On a refined mesh every field is
+            carried to the largest stored version (the run's current mesh,
+            :meth:`stored_refinement`) by :func:`thinfilm.discretization.prolong`.
         """
         from thinfilm.engine.records import State
 
@@ -357,14 +454,33 @@ class ResultsWriter:
         n = finished_steps(f)
         t, elastic, surface = (f["steps"][name][:n] for name in ("t", "elastic", "surface"))
         rescalable = f["steps"]["u_rescalable"][:n] if "u_rescalable" in f["steps"] else np.zeros(n)
+        refinement = self.stored_refinement()
+        versions = f["steps"]["mesh"][:n] if refinement is not None else None
+
+        def read(name, k):
+            if refinement is None:
+                return f["fields"][name][k]
+            ds = f["fields"][name]
+            components = int(ds.attrs.get("components", 1))
+            n_from = int(refinement.pass_nodes[versions[k]])
+            return prolong(ds[k, : n_from * components], refinement, n_from, components)
+
         states = []
         for k in range(n):
             last = k == n - 1
-            alpha = f["fields/alpha"][k] if (all_alpha or last) else None
-            u = f["fields/u"][k] if last else None
+            alpha = read("alpha", k) if (all_alpha or last) else None
+            u = read("u", k) if last else None
             states.append(State(float(t[k]), u, alpha, float(elastic[k]), float(surface[k]),
                                 u_rescalable=bool(last and rescalable[k])))
         return states
+
+    def stored_refinement(self):
+        """The :class:`~thinfilm.discretization.Refinement` of the largest stored version of a
+        refined mesh (the run's current mesh, on which a resumed run rebuilds its model: the
+        mesh never coarsens, and a backtrack keeps the versions stored); None for a mesh that
+        is not refined."""
+        meshes = StoredMeshes.of(self.file)
+        return None if meshes is None else meshes.refinement()
 
     def close(self):
         """Close the file (HDF5 writes what it still holds) and commit it; if that fails (a
