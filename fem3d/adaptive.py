@@ -145,8 +145,7 @@ class AdaptiveModel:
         self.build, self.options = build, options
         self.onset, self.eps = onset_density(at, Gc, eps), eps
         self.model = build(mesh)
-        self.refinement = Refinement(np.full((mesh.n_nodes, 2), -1, dtype=np.int64),
-                                     np.array([mesh.n_nodes], dtype=np.int64), ())
+        self.refinement = Refinement.initial(mesh.n_nodes)
 
     def __getattr__(self, name):
         # only reached for what this class does not define: the model's protocol and hooks

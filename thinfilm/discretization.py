@@ -153,13 +153,14 @@ class Refinement:
     """How a mesh was made from the run's first mesh by nested refinement passes.
 
     Each pass appends its new vertices after the existing ones (existing vertices keep their
-    numbers), each new vertex the midpoint of an edge of the mesh before the pass.
+    numbers), each new vertex the midpoint of two vertices of lower numbers (an edge of the
+    mesh before the pass, or one made by a bisection earlier in the pass).
 
     Attributes
     ----------
     parents : ndarray of int64, shape (n_nodes, 2)
-        Vertex ``i`` made by a pass is the midpoint of vertices ``parents[i]``, both older than
-        that pass; rows of the first mesh's vertices are ``(-1, -1)``.
+        Vertex ``i`` made by a pass is the midpoint of vertices ``parents[i]``, both of lower
+        numbers; rows of the first mesh's vertices are ``(-1, -1)``.
     pass_nodes : ndarray of int64, shape (passes + 1,)
         Number of vertices after each pass: ``pass_nodes[0]`` is the first mesh's,
         ``pass_nodes[-1] = n_nodes``.
@@ -218,11 +219,12 @@ class Refinement:
 def prolong(values, refinement, n_from, components=1):
     """A P1 nodal field on an earlier mesh of a refinement, carried to its last mesh.
 
-    For each later pass ``p`` in order, ``out[pass_nodes[p-1]:pass_nodes[p]] = 0.5 * (out[a] +
-    out[b])`` with ``(a, b)`` the new vertices' parents, per component, vectorized per pass (the
-    parents of a pass's new vertices are older than the pass, so the order within a pass does
-    not matter). The run computes its prolongations with this function, so that a resumed run
-    reproduces them bit for bit.
+    Each later vertex ``i``, in order, gets ``0.5 * (out[a] + out[b])`` with ``(a, b) =
+    parents[i]``, per component: the same numbers as a loop over the vertices, computed over
+    runs of vertices whose parents all precede the run (a pass's vertices can have parents made
+    earlier in the same pass, when a bisection cuts an edge made by the one before). The run
+    computes its prolongations with this function, so that a resumed run reproduces them bit
+    for bit.
 
     Parameters
     ----------
@@ -258,10 +260,14 @@ def prolong(values, refinement, n_from, components=1):
     out[: values.size] = values
     nodal = out.reshape(-1, components)
     parents = refinement.parents
-    for p in range(int(found[-1]) + 1, pass_nodes.size):
-        start, stop = int(pass_nodes[p - 1]), int(pass_nodes[p])
-        a, b = parents[start:stop, 0], parents[start:stop, 1]
-        nodal[start:stop] = 0.5 * (nodal[a] + nodal[b])
+    start, stop = n_from, refinement.n_nodes
+    while start < stop:
+        # the longest run of vertices whose parents all precede it: one vectorized sum
+        late = np.flatnonzero(parents[start:stop].max(axis=1) >= start)
+        end = start + int(late[0]) if late.size else stop
+        a, b = parents[start:end, 0], parents[start:end, 1]
+        nodal[start:end] = 0.5 * (nodal[a] + nodal[b])
+        start = end
     return out
 
 

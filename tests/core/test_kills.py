@@ -51,8 +51,8 @@ def _child(argv, kill_at, events_file, mkl_rt):
 
     write_step = ResultsWriter.write_step
 
-    def logged(self, record, state, observed=None):
-        write_step(self, record, state, observed)
+    def logged(self, record, state, observed=None, mesh=None):
+        write_step(self, record, state, observed, mesh=mesh)
         with open(self.path.parent / "stored.txt", "a") as log:
             log.write(f"{record.index}\n")
 

@@ -12,7 +12,7 @@ from fem3d.damage import P1Damage
 from fem3d.refine import cell_sizes
 from fem3d.scene import AdaptOptions
 from tests.fem3d.meshes import small_mesh
-from thinfilm.discretization import prolong
+from thinfilm.discretization import Refinement, prolong
 from thinfilm.solvers.boxqp import solve_box_qp
 
 
@@ -20,9 +20,7 @@ def refined_chain(mesh, n, seed=0):
     """An adaptive model's refinement of ``mesh`` by ``n`` random passes, through
     :meth:`AdaptiveModel._pass` (no model needed): ``(mesh, refinement)``."""
     rng = np.random.default_rng(seed)
-    from thinfilm.discretization import Refinement
-
-    refinement = Refinement(np.full((mesh.n_nodes, 2), -1, dtype=np.int64), np.array([mesh.n_nodes]), ())
+    refinement = Refinement.initial(mesh.n_nodes)
     for _ in range(n):
         marked = np.sort(rng.choice(mesh.n_cells, size=max(1, mesh.n_cells // 5), replace=False))
         mesh, refinement, _ = AdaptiveModel._pass(mesh, refinement, marked)
@@ -122,3 +120,25 @@ def test_near_damage():
     distance = np.linalg.norm(centroids - mesh.points[0], axis=1)
     np.testing.assert_array_equal(near, distance <= buffer + cell_sizes(mesh.points, mesh.cells))
     assert not near_damage(mesh.points, mesh.cells, alpha, 1.5, buffer).any()
+
+
+def test_transfer_when_a_pass_halves_an_edge_it_made():
+    """A bisection can cut an edge made earlier in the same pass (a child whose longest edge
+    is new): the new vertex's parent is then a vertex of that pass, and the transfer must
+    compute it after its parent (a per-pass vectorized sum would read it unset)."""
+    from tests.fem3d.meshes import tri_mesh
+
+    mesh = tri_mesh(5, 5, jitter=0.45, seed=2)
+    rng = np.random.default_rng(2)
+    refinement = Refinement.initial(mesh.n_nodes)
+    first = mesh
+    for _ in range(4):
+        marked = np.sort(rng.choice(mesh.n_cells, size=max(1, mesh.n_cells // 3), replace=False))
+        mesh, refinement, _ = AdaptiveModel._pass(mesh, refinement, marked)
+    new = refinement.parents[first.n_nodes:]
+    own = np.arange(first.n_nodes, mesh.n_nodes)
+    passes = np.searchsorted(refinement.pass_nodes, own, side="right")
+    assert np.any(new.max(axis=1) >= refinement.pass_nodes[passes - 1])   # the case occurs here
+    affine = 2.0 * first.points[:, 0] - 0.7 * first.points[:, 1] + 0.1
+    np.testing.assert_allclose(prolong(affine, refinement, first.n_nodes),
+                               2.0 * mesh.points[:, 0] - 0.7 * mesh.points[:, 1] + 0.1, rtol=0, atol=1e-14)

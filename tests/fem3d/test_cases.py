@@ -197,31 +197,29 @@ def test_three_point_bending_case_resolution_first_hole_is_m(tmp_path, configura
         res.close()
 
 
-def _crack_distance(res_a, res_b, k_a, k_b, threshold=0.9):
-    """The symmetric Hausdorff distance between the crack nodes (alpha >= threshold) of two
-    runs' steps, each on its own mesh (length)."""
-    from scipy.spatial import cKDTree
+def test_lpanel_adaptive_against_its_banded_twin(tmp_path):
+    """The coarse L-panel at eps/h = 5 (eps = 12.5 mm, h = 2.5 mm), banded and adaptive (a
+    uniform first mesh of 25 mm refined down to 2.5 mm where the crack goes): the same critical
+    step, the peak force within 2% and the energy within 2% from there on, the cracks within
+    3 h of each other (the symmetric distance between their nodes with alpha >= 0.9), with
+    fewer nodes; before the corner is refined the coarse first mesh is stiffer, within 3%.
+    Measured: 0.255 mm both, +0.4%, at most 1.1%, 6.2 mm (at the tips), 6,384 nodes against
+    9,060; +2.1% in the elastic phase (docs/adaptivity.md#measured)."""
+    from benchmarks.bench_adaptive import crack_distance
 
-    a = res_a.discretization_at(k_a).points[res_a.field("alpha", k_a) >= threshold]
-    b = res_b.discretization_at(k_b).points[res_b.field("alpha", k_b) >= threshold]
-    return max(cKDTree(b).query(a)[0].max(), cKDTree(a).query(b)[0].max())
-
-
-def test_lpanel_adaptive_against_its_banded_twin(lpanel, tmp_path):
-    """The coarse L-panel from a uniform mesh of 25 mm refined down to h_min = 5 mm (the banded
-    twin's h) where the crack goes: the same critical step, the critical load within 2%, the
-    crack within 2 h_min of the banded run's, the final energy within 2%, with fewer nodes."""
-    scene_b, res_b, summary_b = lpanel
-    overrides = {k: v for k, v in COARSE_LPANEL.items() if not k.startswith("mesh.")}
-    overrides.update({"mesh.adapt": True, "mesh.h_min": 5.0, "mesh.h_max": 25.0})
-    scene = load_case("lpanel", overrides)
-    summary = json.loads(run(scene, tmp_path)["summary"].read_text())
-    with Results(tmp_path / "results.h5") as res:
-        assert summary["events"] and summary_b["events"]
-        assert summary["events"][0]["t"] == summary_b["events"][0]["t"]
-        k = int(np.searchsorted(res.t, summary["events"][0]["t"]))
-        assert res.steps["force"][k - 1] == pytest.approx(res_b.steps["force"][k - 1], rel=0.02)
-        assert res.steps["refinements"][k] >= 1 and res.steps["nodes"][-1] < res_b.discretization.n_nodes
-        last = res.n - 1
-        assert _crack_distance(res, res_b, last, last) <= 2 * 5.0
-        assert res.steps["total"][last] == pytest.approx(res_b.steps["total"][last], rel=0.02)
+    runs = {}
+    for name, adapt in (("banded", False), ("adaptive", True)):
+        overrides = dict(COARSE_LPANEL, **{"mesh.h": 2.5, "mesh.adapt": adapt})
+        run(load_case("lpanel", overrides), tmp_path / name)
+        runs[name] = Results(tmp_path / name / "results.h5")
+    with runs["banded"] as banded, runs["adaptive"] as adaptive:
+        jumps = [int(np.argmax(np.diff(res.steps["surface"]))) + 1 for res in (banded, adaptive)]
+        assert jumps[0] == jumps[1] and banded.t[jumps[0]] == 0.255
+        k = jumps[0]
+        assert adaptive.steps["force"][k - 1] == pytest.approx(banded.steps["force"][k - 1], rel=0.02)
+        np.testing.assert_allclose(adaptive.steps["total"][k - 1:], banded.steps["total"][k - 1:], rtol=0.02)
+        np.testing.assert_allclose(adaptive.steps["total"][1:k], banded.steps["total"][1:k], rtol=0.03)
+        assert adaptive.steps["refinements"][k] >= 1 and adaptive.steps["mesh"][-1] > adaptive.steps["mesh"][0]
+        assert adaptive.steps["nodes"][-1] < banded.discretization.n_nodes
+        last = adaptive.n - 1
+        assert crack_distance(adaptive, last, banded, last) <= 3 * 2.5

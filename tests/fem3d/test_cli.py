@@ -118,3 +118,29 @@ def test_steps_that_cannot_fit_the_memory_are_refused_at_once(tmp_path, capsys):
     assert "nodes x 4 kB, and 1e+10 steps of fields)" in lines[0]
     assert "available on this machine; use fewer steps" in lines[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["beam.toml"]
+
+
+def test_an_adaptive_run_extended_is_the_longer_run_bit_for_bit(tmp_path):
+    """An adaptive run (the coarse panel from a uniform mesh of 50 mm refined down to 10 mm)
+    stopped at 0.18 mm, its corner already refined, then resumed with the whole list (the
+    crack and more refinement to come) is the uninterrupted run, bit for bit: every step's
+    records and fields, and every stored mesh (the resumed run rebuilds its model by
+    replaying the stored passes on the first mesh)."""
+    adaptive = {**COARSE, "mesh.adapt": True}
+    full, out = tmp_path / "full", tmp_path / "out"
+    _run(full, overrides=adaptive)
+    _run(out, overrides={**adaptive, "load.t": COARSE["load.t"][:10], "output.snapshots": [0.1]})
+    with h5py.File(out / "results.h5", "r") as f:
+        assert f["steps/mesh"][-1] > 0   # stopped on a refined mesh
+    _run(out, "--resume", overrides=adaptive)
+
+    def read(path):
+        with h5py.File(path, "r") as f:
+            return _read(path) | {f"meshes/{k}": v[()] for k, v in f["meshes"].items()}
+
+    reference, resumed = read(full / "results.h5"), read(out / "results.h5")
+    assert reference["steps/surface"][-1] > 0 and reference["steps/mesh"][-1] > reference["steps/mesh"][9]
+    assert resumed.keys() == reference.keys()
+    for name, value in reference.items():
+        if not name.startswith("steps/time_"):
+            np.testing.assert_array_equal(resumed[name], value, err_msg=name)

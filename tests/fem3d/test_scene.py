@@ -149,12 +149,12 @@ def test_an_adaptive_mesh_reads_its_sizes_and_thresholds():
     adaptive = SCENE.replace("h = 5.0\nh_coarse = 25.0", "adapt = true\nh_min = 2.0\nh_max = 20.0\nadapt_alpha = 0.1")
     a = parse_scene(adaptive).mesh
     assert (a.h, a.h_coarse) == (2.0, 20.0)
-    assert (a.adapt.h_min, a.adapt.h_max, a.adapt.alpha, a.adapt.energy, a.adapt.buffer) == (2.0, 20.0, 0.1, 0.5, 1.0)
+    assert (a.adapt.h_min, a.adapt.h_max, a.adapt.alpha, a.adapt.energy, a.adapt.buffer) == (2.0, 20.0, 0.1, 0.5, 0.0)
     # a banded scene made adaptive keeps its sizes; defaults from eps
     banded = parse_scene(SCENE.replace("[mesh]", "[mesh]\nadapt = true")).mesh.adapt
     assert (banded.h_min, banded.h_max) == (5.0, 25.0)
-    bare = parse_scene(SCENE.replace("h = 5.0\nh_coarse = 25.0", "adapt = true")).mesh.adapt
-    assert (bare.h_min, bare.h_max, bare.buffer) == (0.1, 2.0, 1.0)   # eps / 5, 4 eps, 2 eps
+    bare = parse_scene(SCENE.replace("h = 5.0\nh_coarse = 25.0", "adapt = true\nadapt_buffer = 1.5")).mesh.adapt
+    assert (bare.h_min, bare.h_max, bare.buffer) == (0.1, 2.0, 1.5)   # eps / 5, 4 eps
     assert parse_scene(SCENE).mesh.adapt is None
     case = load_case("lpanel", {"mesh.adapt": True}).mesh.adapt
     assert (case.h_min, case.h_max) == (0.625, 12.5)
