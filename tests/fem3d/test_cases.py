@@ -116,7 +116,7 @@ def test_lpanel_backtracking_lowers_the_critical_load(lpanel, tmp_path_factory):
 def _check_3d_panel(scene, res, k):
     """At step ``k`` the crack surface runs from the re-entrant edge through the whole depth,
     rising to the left inside the experiments' 0-43 degrees on average."""
-    points = res.discretization.points
+    points = res.discretization_at(k).points
     h = scene.mesh.h
     slices = crack_through_depth(points, res.field("alpha", k), (250.0, 250.0), np.linspace(0.0, 100.0, 6), h)
     for z, start, length, angle in slices:
@@ -223,3 +223,19 @@ def test_lpanel_adaptive_against_its_banded_twin(tmp_path):
         assert adaptive.steps["nodes"][-1] < banded.discretization.n_nodes
         last = adaptive.n - 1
         assert crack_distance(adaptive, last, banded, last) <= 3 * 2.5
+
+
+def test_lpanel_3d_adaptive_crack_from_the_re_entrant_edge(tmp_path):
+    # the coarse 3D panel of the test above from a uniform mesh of 50 mm refined down to 15 mm
+    # where the crack goes: the crack surface at the same load, through the whole depth
+    overrides = {"model.eps": 30.0, "mesh.h": 15.0, "mesh.h_coarse": 50.0, "mesh.adapt": True,
+                 "load.t_max": None, "load.steps": None, "load.t": [0.0, 0.1, 0.2, 0.24, 0.26, 0.28],
+                 "output.snapshots": [0.28]}
+    scene = load_case("lpanel_3d", overrides)
+    run(scene, tmp_path)
+    with Results(tmp_path / "results.h5") as res:
+        area = np.asarray(res.steps["surface"]) / scene.model.Gc   # mm^2
+        k = int(np.argmax(np.diff(area))) + 1
+        assert res.t[k] == 0.26 and area[k] - area[k - 1] > 50.0 * 100.0
+        assert res.steps["nodes"][-1] > res.steps["nodes"][0] and res.steps["refinements"][k] >= 1
+        _check_3d_panel(scene, res, len(res.t) - 1)
