@@ -20,6 +20,7 @@ Usage (from the repository root)::
     python -m benchmarks.bench_adaptive --cases lpanel_fine         # banded: 3-4 hours
     python -m benchmarks.bench_adaptive --quick --out /tmp/adaptive # the coarse L-panel, 1 minute
     python -m benchmarks.bench_adaptive --cases lpanel_fine --collect   # rows from runs made
+    python -m benchmarks.bench_adaptive --cases lpanel --sequential     # one row after the other
 
 ``--collect`` reads the run folders already in ``--work`` (default
 ``/tmp/thinfilm_bench_adaptive``; wall time and peak memory then from their ``.log`` if it
@@ -52,7 +53,8 @@ THREADS = {"MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": 
 CASES = {
     "lpanel": ("cases/lpanel.toml", [], []),
     "lpanel_fine": ("cases/lpanel_fine.toml", [], []),
-    "lpanel_coarse": ("cases/lpanel.toml", ["model.eps=12.5", "mesh.h=5.0", "mesh.h_coarse=25.0"], []),
+    "lpanel_coarse": ("cases/lpanel.toml", ["model.eps=12.5", "mesh.h=2.5", "mesh.h_coarse=25.0"], []),
+    "lpanel_3d": ("cases/lpanel_3d.toml", [], []),
 }
 QUICK = ("lpanel_coarse",)
 FIELDS = ["id", "case", "mesh", "wall_s", "steps_s", "speedup", "peak_gb", "steps", "nodes_first", "nodes_last",
@@ -127,13 +129,13 @@ def measure(case, work, timing):
                 u_c=float(res.t[jump]) if jump is not None and jump < n else "",
                 F_c=round(float(res.steps["force"][jump - 1]), 1) if jump is not None and jump < n else "",
                 final_energy=float(res.steps["total"][n - 1]),
-                energy_vs_banded=float(res.steps["total"][n - 1] / banded.steps["total"][n - 1] - 1.0),
+                energy_vs_banded=round(float(res.steps["total"][n - 1] / banded.steps["total"][n - 1] - 1.0), 5),
                 crack_distance=round(crack_distance(res, n - 1, banded, n - 1), 3),
                 crack_distance_at=float(res.t[n - 1]), h_min=float(res.parameters["h"]))
     return list(rows.values())
 
 
-def run_cases(cases, out, work, collect):
+def run_cases(cases, out, work, collect, sequential=False):
     work.mkdir(parents=True, exist_ok=True)
     for case in cases:
         timing = {}
@@ -141,8 +143,10 @@ def run_cases(cases, out, work, collect):
             for mesh in ("banded", "adaptive"):
                 timing[mesh] = _time_report(work / f"{case}-{mesh}.log")
         else:
-            started = [_start(case, mesh, work) for mesh in ("banded", "adaptive")]
-            for (process, folder, _), mesh in zip(started, ("banded", "adaptive")):
+            meshes = ("banded", "adaptive")
+            started = [] if sequential else [_start(case, mesh, work) for mesh in meshes]
+            for k, mesh in enumerate(meshes):
+                process, folder, _ = _start(case, mesh, work) if sequential else started[k]
                 if process.wait() != 0:
                     raise RuntimeError(f"{folder.name} failed; see {folder}.log")
                 timing[mesh] = _time_report(work / f"{case}-{mesh}.log")
@@ -171,12 +175,14 @@ def main(argv=None):
     parser.add_argument("--cases", nargs="+", choices=sorted(CASES), default=None)
     parser.add_argument("--quick", action="store_true", help="the coarse L-panel only")
     parser.add_argument("--collect", action="store_true", help="measure the run folders already in --work")
+    parser.add_argument("--sequential", action="store_true",
+                        help="the two rows one after the other (a core is busy with another run)")
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--work", type=Path, default=WORK)
     args = parser.parse_args(argv)
     cases = args.cases or (list(QUICK) if args.quick else ["lpanel"])
     args.out.mkdir(parents=True, exist_ok=True)
-    run_cases(cases, args.out, args.work, args.collect)
+    run_cases(cases, args.out, args.work, args.collect, args.sequential)
 
 
 if __name__ == "__main__":
