@@ -32,7 +32,7 @@ from fem3d.refine import cell_sizes, refine
 from fem3d.scene import AdaptOptions
 from thinfilm.discretization import Refinement, SimplexMesh, prolong
 
-__all__ = ["AdaptiveModel", "Transfer", "onset_density", "mark", "near_damage"]
+__all__ = ["AdaptiveModel", "Transfer", "onset_density", "mark", "near_damage", "refine_pass"]
 
 
 def onset_density(at, Gc, eps):
@@ -87,6 +87,18 @@ def near_damage(points, cells, alpha, threshold, buffer):
     centroids = points[cells].mean(axis=1)
     distance, _ = cKDTree(points[damaged]).query(centroids, k=1)
     return distance <= buffer + cell_sizes(points, cells)
+
+
+def refine_pass(mesh, refinement, marked):
+    """One refinement pass of ``mesh`` (:func:`fem3d.refine.refine` of the ``marked`` cells),
+    recorded: ``(mesh, refinement, cell_parent)``, the refined mesh, ``refinement`` extended by
+    the pass (its parents, vertex count and marked cells), and the old cell each new one lies
+    in."""
+    refined = refine(mesh, marked)
+    pass_nodes = np.append(refinement.pass_nodes, refined.mesh.n_nodes)
+    refinement = Refinement(np.concatenate([refinement.parents, refined.parents]), pass_nodes,
+                            refinement.marked + (np.asarray(marked, dtype=np.int64),))
+    return refined.mesh, refinement, refined.cell_parent
 
 
 class Transfer:
@@ -202,20 +214,12 @@ class AdaptiveModel:
         n_from = mesh.n_nodes
         while marked.any():
             n_before = mesh.n_nodes
-            mesh, refinement, cell_parent = self._pass(mesh, refinement, np.flatnonzero(marked))
+            mesh, refinement, cell_parent = refine_pass(mesh, refinement, np.flatnonzero(marked))
             alpha = prolong(alpha, refinement, n_before, 1)
             density, damageable = density[cell_parent], damageable[cell_parent]
             marked = self._mark(mesh, alpha, density, damageable)
         self._set(mesh, refinement)
         return Transfer(refinement, n_from, mesh.dim)
-
-    @staticmethod
-    def _pass(mesh, refinement, marked):
-        refined = refine(mesh, marked)
-        pass_nodes = np.append(refinement.pass_nodes, refined.mesh.n_nodes)
-        refinement = Refinement(np.concatenate([refinement.parents, refined.parents]), pass_nodes,
-                                refinement.marked + (marked,))
-        return refined.mesh, refinement, refined.cell_parent
 
     def _set(self, mesh, refinement):
         self.model = self.build(mesh)
@@ -228,7 +232,7 @@ class AdaptiveModel:
         if replayed.passes:
             raise RuntimeError("restore needs a model that has not refined yet")
         for marked in refinement.marked:
-            mesh, replayed, _ = self._pass(mesh, replayed, np.asarray(marked, dtype=np.int64))
+            mesh, replayed, _ = refine_pass(mesh, replayed, np.asarray(marked, dtype=np.int64))
         if not (np.array_equal(replayed.parents, refinement.parents)
                 and np.array_equal(replayed.pass_nodes, refinement.pass_nodes)):
             raise ValueError("the stored refinement does not replay on this first mesh (another mesh or"

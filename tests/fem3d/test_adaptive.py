@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fem3d.adaptive import AdaptiveModel, Transfer, mark, near_damage, onset_density
+from fem3d.adaptive import Transfer, mark, near_damage, onset_density, refine_pass
 from fem3d.damage import P1Damage
 from fem3d.refine import cell_sizes
 from fem3d.scene import AdaptOptions
@@ -18,12 +18,12 @@ from thinfilm.solvers.boxqp import solve_box_qp
 
 def refined_chain(mesh, n, seed=0):
     """An adaptive model's refinement of ``mesh`` by ``n`` random passes, through
-    :meth:`AdaptiveModel._pass` (no model needed): ``(mesh, refinement)``."""
+    :func:`fem3d.adaptive.refine_pass` (no model needed): ``(mesh, refinement)``."""
     rng = np.random.default_rng(seed)
     refinement = Refinement.initial(mesh.n_nodes)
     for _ in range(n):
         marked = np.sort(rng.choice(mesh.n_cells, size=max(1, mesh.n_cells // 5), replace=False))
-        mesh, refinement, _ = AdaptiveModel._pass(mesh, refinement, marked)
+        mesh, refinement, _ = refine_pass(mesh, refinement, marked)
     return mesh, refinement
 
 
@@ -134,7 +134,7 @@ def test_transfer_when_a_pass_halves_an_edge_it_made():
     first = mesh
     for _ in range(4):
         marked = np.sort(rng.choice(mesh.n_cells, size=max(1, mesh.n_cells // 3), replace=False))
-        mesh, refinement, _ = AdaptiveModel._pass(mesh, refinement, marked)
+        mesh, refinement, _ = refine_pass(mesh, refinement, marked)
     new = refinement.parents[first.n_nodes:]
     own = np.arange(first.n_nodes, mesh.n_nodes)
     passes = np.searchsorted(refinement.pass_nodes, own, side="right")
