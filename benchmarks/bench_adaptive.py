@@ -163,9 +163,12 @@ def write_markdown(out):
     with open(out / "adaptive.csv") as f:
         rows = list(csv.DictReader(f))
     columns = ["case", "mesh", "steps", "wall_s", "steps_s", "speedup", "peak_gb", "nodes_first", "nodes_last",
-               "node_ratio", "jump_iterations", "u_c", "F_c", "energy_vs_banded", "crack_distance", "h_min"]
-    text = ("# Adaptive meshes against banded ones\n\n`python -m benchmarks.bench_adaptive` (one thread per run, the"
-            " two rows of a case side by side; docs/adaptivity.md#measured)\n\n"
+               "node_ratio", "jump_iterations", "u_c", "F_c", "energy_vs_banded", "crack_distance", "crack_distance_at",
+               "h_min"]
+    text = ("# Adaptive meshes against banded ones\n\n`python -m benchmarks.bench_adaptive` (one thread per run; the"
+            " two rows of a case side by side, or one after the other with `--sequential`; speed-up: the banded"
+            " row's step time over the row's; energy and crack distance at the last step both reached,"
+            " `crack_distance_at`; docs/adaptivity.md#measured)\n\n"
             + "\n".join(markdown_table(rows, columns)) + "\n")
     (out / "adaptive.md").write_text(text)
 
