@@ -1,8 +1,8 @@
 """Adaptive meshes against today's banded ones: whole evolutions, case by case.
 
-Each case is run twice with ``python -m thinfilm run CASE --threads 1``: as its file has it
-(the mesh refined in advance in a band where the crack was expected) and with
-``--set mesh.adapt=true`` (a uniform first mesh of the case's ``h_coarse``, refined during the
+Each case is run twice with ``python -m thinfilm run CASE --threads 1``: with
+``--set mesh.adapt=false`` (the mesh refined in advance in a band where the crack was
+expected) and with ``--set mesh.adapt=true`` (a uniform first mesh of the case's ``h_coarse``, refined during the
 run down to its ``h``: docs/adaptivity.md). The two rows of a case run side by side, one
 thread each, so that both see the same machine. Per row: wall time and peak memory of the
 process, the time in its steps (``/steps/time_total``: the speed-up is the banded row's over
@@ -67,7 +67,7 @@ def _start(case, mesh, work):
     folder = work / f"{case}-{mesh}"
     command = ["/usr/bin/time", "-v", sys.executable, "-m", "thinfilm", "run", scene, "--out", str(folder),
                "--force", "--threads", "1"]
-    for item in overrides + (["mesh.adapt=true"] if mesh == "adaptive" else []):
+    for item in overrides + [f"mesh.adapt={'true' if mesh == 'adaptive' else 'false'}"]:
         command += ["--set", item]
     log = open(work / f"{case}-{mesh}.log", "w")
     process = subprocess.Popen(command, cwd=ROOT, env={**os.environ, **THREADS}, stdout=log, stderr=subprocess.STDOUT)
