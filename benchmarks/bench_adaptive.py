@@ -3,8 +3,8 @@
 Each case is run twice with ``python -m thinfilm run CASE --threads 1``: with
 ``--set mesh.adapt=false`` (the mesh refined in advance in a band where the crack was
 expected) and with ``--set mesh.adapt=true`` (a uniform first mesh of the case's
-``h_coarse``, refined during the run down to its ``h``: docs/adaptivity.md). The two rows of a case run side by side, one
-thread each, so that both see the same machine. Per row: wall time and peak memory of the
+``h_coarse``, refined during the run down to its ``h``: docs/adaptivity.md). The two rows of
+a case run side by side, one thread each, so that both see the same machine. Per row: wall time and peak memory of the
 process, the time in its steps (``/steps/time_total``: the speed-up is the banded row's over
 the adaptive row's), its nodes (the banded mesh's; the adaptive run's first and last), the
 iterations of the step where the crack first jumps, the critical displacement (that step's
