@@ -208,7 +208,8 @@ class FemKind(EvolutionKind):
             model = AdaptiveModel(mesh, lambda refined: build_model(scene, refined), adapt, at=m.at, Gc=m.Gc, eps=m.eps)
             sizes_line = (f" adaptive, the first mesh {'from the file' if scene.mesh.measured else f'of h_max = {adapt.h_max:g}'},"
                           f" refined down to h_min = {adapt.h_min:g} (eps/h_min = {m.eps / adapt.h_min:.3g}) where"
-                          f" alpha >= {adapt.alpha:g} or the energy density >= {adapt.energy:g} of the damage onset")
+                          f" alpha >= {adapt.alpha:g}{f' (and {adapt.buffer:g} about it)' if adapt.buffer else ''} or the"
+                          f" energy density >= {adapt.energy:g} of the damage onset")
         else:
             model = build_model(scene, mesh)
             sizes_line = (f" elements of {scene.mesh.h:.4g} where finest (measured: the 5th percentile of their longest"
@@ -262,7 +263,8 @@ class FemKind(EvolutionKind):
                 "geometry": g.kind, **({"file": g.file} if g.file else {}), "h": scene.mesh.h,
                 "h_coarse": scene.mesh.h_coarse,
                 **({"adapt": True, "h_min": scene.mesh.adapt.h_min, "h_max": scene.mesh.adapt.h_max,
-                    "adapt_alpha": scene.mesh.adapt.alpha, "adapt_energy": scene.mesh.adapt.energy}
+                    "adapt_alpha": scene.mesh.adapt.alpha, "adapt_energy": scene.mesh.adapt.energy,
+                    "adapt_buffer": scene.mesh.adapt.buffer}
                    if scene.mesh.adapt is not None else {}),
                 "t_max": scene.load.t_max, "steps": scene.load.steps,
                 "loaded": ",".join(scene.load.loaded), "proportional": scene.load.proportional,
