@@ -226,6 +226,7 @@ def test_lpanel_adaptive_against_its_banded_twin(tmp_path):
         assert crack_distance(adaptive, last, banded, last) <= 3 * 2.5
 
 
+@pytest.mark.slow   # 15-20 s; the default suite keeps 3D refinement and 3D files (test_refine, test_adaptive_results)
 def test_lpanel_3d_adaptive_crack_from_the_re_entrant_edge(tmp_path):
     # the coarse 3D panel of the test above from a uniform mesh of 50 mm refined down to 15 mm
     # where the crack goes: the crack surface at the same load, through the whole depth
