@@ -126,7 +126,7 @@ def release_rate(results):
     # event); below a hundredth of its peak elastic energy the specimen is cut through
     G, a = energy_release_rate(results.t, results.steps["elastic"], results.steps["surface"], p["Gc"],
                                width if math.isfinite(width) else 1.0, a0=a0, da_min=p["h"],
-                               jump=4.0 * p["eps"], carried=CUT_THROUGH)
+                               jump=4.0 * p["eps"], carried=CUT_THROUGH, meshes=results.steps.get("mesh"))
     if not p.get("proportional", True) or not math.isfinite(width):
         # (4.16) dB/dt = 2B/t holds for a load proportional to t only: with a constant part
         # the steps alone do not give G; without a straight front there is no a

@@ -24,7 +24,8 @@ import numpy as np
 __all__ = ["energy_release_rate"]
 
 
-def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0, jump=np.inf, carried=0.0):
+def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0, jump=np.inf, carried=0.0,
+                        meshes=None):
     """G and the crack length at each recorded step.
 
     Parameters
@@ -51,6 +52,10 @@ def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0, 
         Fraction of the peak elastic energy so far below which the specimen no longer carries
         the load (cut through): G is NaN there, since ``a`` then grows only by the broken
         band widening.
+    meshes : array_like of int, shape (n,), optional
+        The version of each step's mesh (an adaptive run, docs/adaptivity.md#the-energy-release-rate):
+        G is differenced only between steps on the same mesh, since a refinement changes the
+        bulk energy at a fixed crack (NaN otherwise).
 
     Returns
     -------
@@ -71,8 +76,9 @@ def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0, 
             continue
         before = jumps[jumps < k]
         first = before[-1] if before.size else 0          # not across an earlier jump
+        same = np.ones(k, dtype=bool) if meshes is None else np.asarray(meshes)[:k] == np.asarray(meshes)[k]
         grown = np.flatnonzero((a[k] - a[:k] >= max(da_min, 0.0)) & (t[:k] > 0) & (a[:k] < a[k])
-                               & (np.arange(k) >= first))
+                               & (np.arange(k) >= first) & same)
         if len(grown) == 0:
             continue
         j = grown[-1]

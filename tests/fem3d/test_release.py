@@ -78,3 +78,16 @@ def test_no_difference_across_a_jump_and_none_once_cut_through():
     assert np.isfinite(G_old[3]) and np.isnan(G[3])           # 0.1 after the jump: not across it
     assert np.isnan(G[4]) and G[5] == pytest.approx(G_old[5])  # steps 2 .. 5: 0.3 >= da_min
     assert np.isfinite(G_old[6:]).all() and np.isnan(G[6:]).all()   # cut through: no G
+
+
+def test_no_difference_across_a_refinement():
+    # an adaptive run's steps on meshes 0, 0, 1, 1, 1: G only between steps on the same mesh
+    t = np.array([0.5, 1.0, 1.5, 2.0, 2.5])
+    a_len = np.array([1.0, 1.2, 1.4, 1.6, 1.8])
+    B = 3.0 * t ** 2 / a_len
+    S = 2.0 * a_len
+    fixed, _ = energy_release_rate(t, B, S, 2.0, 1.0)
+    adaptive, _ = energy_release_rate(t, B, S, 2.0, 1.0, meshes=[0, 0, 1, 1, 1])
+    assert np.isfinite(fixed[1:]).all()
+    np.testing.assert_array_equal(adaptive[[1, 3, 4]], fixed[[1, 3, 4]])
+    assert np.isnan(adaptive[2]) and np.isnan(adaptive[0])
