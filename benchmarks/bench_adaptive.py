@@ -92,16 +92,12 @@ def _first_jump(res):
     return None if not events else int(np.searchsorted(res.t, events[0]["t"]))
 
 
-def crack_distance(res_a, k_a, res_b, k_b, threshold=0.9):
-    """The symmetric Hausdorff distance between the crack nodes (alpha >= threshold) of two
-    runs' steps, each on its own mesh (length); NaN if either has none."""
-    from scipy.spatial import cKDTree
+def crack_distance(res_a, k_a, res_b, k_b):
+    """:func:`fem3d.cracks.crack_distance` of step ``k_a`` of one run and ``k_b`` of another."""
+    from fem3d.cracks import crack_distance as distance
 
-    a = res_a.discretization_at(k_a).points[res_a.field("alpha", k_a) >= threshold]
-    b = res_b.discretization_at(k_b).points[res_b.field("alpha", k_b) >= threshold]
-    if len(a) == 0 or len(b) == 0:
-        return np.nan
-    return float(max(cKDTree(b).query(a)[0].max(), cKDTree(a).query(b)[0].max()))
+    return distance(res_a.discretization_at(k_a).points, res_a.field("alpha", k_a),
+                    res_b.discretization_at(k_b).points, res_b.field("alpha", k_b))
 
 
 def measure(case, work, timing):

@@ -29,7 +29,6 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from fem3d.refine import cell_sizes, refine
-from fem3d.scene import AdaptOptions
 from thinfilm.discretization import Refinement, SimplexMesh, prolong
 
 __all__ = ["AdaptiveModel", "Transfer", "onset_density", "mark", "near_damage", "refine_pass"]
@@ -185,10 +184,6 @@ class AdaptiveModel:
         near = near_damage(mesh.points, mesh.cells, alpha, o.alpha, o.buffer)
         return mark(cell_sizes(mesh.points, mesh.cells), np.asarray(alpha)[mesh.cells].max(axis=1), density,
                     damageable, o, self.onset, self.eps, near)
-
-    def marked(self, u, alpha):
-        """The cells of the current mesh to refine around the state ``(u, alpha)`` (mask)."""
-        return self._mark(self.mesh, alpha, *self._indicators(u))
 
     def refine(self, u, alpha, t):
         """Refine around the converged state ``(u, alpha)`` at load ``t``

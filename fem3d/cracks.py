@@ -16,11 +16,28 @@ import math
 
 import numpy as np
 
-__all__ = ["BROKEN", "crack_tip", "initial_direction", "crack_through_depth", "holes_reached", "trace_angles",
-           "twist", "cracks_from"]
+__all__ = ["BROKEN", "crack_distance", "crack_tip", "initial_direction", "crack_through_depth", "holes_reached",
+           "trace_angles", "twist", "cracks_from"]
 
 #: Damage at which a node counts as broken (the dissertation draws cracks as 0.9 <= alpha <= 1).
 BROKEN = 0.9
+
+
+def crack_distance(points_a, alpha_a, points_b, alpha_b, threshold=BROKEN):
+    """How far apart two cracks are, each on its own mesh: the symmetric Hausdorff distance
+    between their nodes with ``alpha >= threshold`` (length); NaN if either has none.
+
+    Parameters
+    ----------
+    points_a, points_b : ndarray, shape (n_a, d), (n_b, d)
+    alpha_a, alpha_b : ndarray, shape (n_a,), (n_b,)
+    """
+    from scipy.spatial import cKDTree
+
+    a, b = points_a[np.asarray(alpha_a) >= threshold], points_b[np.asarray(alpha_b) >= threshold]
+    if len(a) == 0 or len(b) == 0:
+        return math.nan
+    return float(max(cKDTree(b).query(a)[0].max(), cKDTree(a).query(b)[0].max()))
 
 
 def crack_tip(points, alpha, origin, threshold=BROKEN):

@@ -206,9 +206,10 @@ class FemKind(EvolutionKind):
             from fem3d.adaptive import AdaptiveModel
 
             model = AdaptiveModel(mesh, lambda refined: build_model(scene, refined), adapt, at=m.at, Gc=m.Gc, eps=m.eps)
-            sizes_line = (f" adaptive, the first mesh {'from the file' if scene.mesh.measured else f'of h_max = {adapt.h_max:g}'},"
-                          f" refined down to h_min = {adapt.h_min:g} (eps/h_min = {m.eps / adapt.h_min:.3g}) where"
-                          f" alpha >= {adapt.alpha:g}{f' (and {adapt.buffer:g} about it)' if adapt.buffer else ''} or the"
+            first = "from the file" if scene.mesh.measured else f"of h_max = {adapt.h_max:g}"
+            buffer = f" (and {adapt.buffer:g} about it)" if adapt.buffer else ""
+            sizes_line = (f" adaptive, the first mesh {first}, refined down to h_min = {adapt.h_min:g}"
+                          f" (eps/h_min = {m.eps / adapt.h_min:.3g}) where alpha >= {adapt.alpha:g}{buffer} or the"
                           f" energy density >= {adapt.energy:g} of the damage onset")
         else:
             model = build_model(scene, mesh)

@@ -72,29 +72,10 @@ class RefinedMesh:
     cell_parent: np.ndarray
 
 
-def _keys(a, b):
-    low, high = np.minimum(a, b), np.maximum(a, b)
-    return (low.astype(np.int64) << _SHIFT) | high.astype(np.int64)
-
-
 def _edge_keys(cells, pairs):
     """Keys of every local edge of every cell (or facet), shape (n, n_edges)."""
-    return _keys(cells[:, pairs[:, 0]], cells[:, pairs[:, 1]])
-
-
-def _longest(points, cells, pairs):
-    """``(best, keys)``: the local index of each cell's longest edge in the total order
-    (squared length, then key), shape (n,), and the keys of its edges, shape (n, n_edges)."""
-    keys = _edge_keys(cells, pairs)
-    low, high = keys >> _SHIFT, keys & np.int64(0xFFFFFFFF)
-    length2 = np.sum((points[high] - points[low]) ** 2, axis=-1)   # the same arithmetic in every cell
-    rows = np.arange(cells.shape[0])
-    best = np.zeros(cells.shape[0], dtype=np.int64)
-    for j in range(1, pairs.shape[0]):
-        held_length, held_key = length2[rows, best], keys[rows, best]
-        better = (length2[:, j] > held_length) | ((length2[:, j] == held_length) & (keys[:, j] > held_key))
-        best[better] = j
-    return best, keys
+    a, b = cells[:, pairs[:, 0]], cells[:, pairs[:, 1]]
+    return (np.minimum(a, b).astype(np.int64) << _SHIFT) | np.maximum(a, b).astype(np.int64)
 
 
 def cell_sizes(points, cells):
@@ -115,11 +96,14 @@ def _bisect(cells, pairs, best, mid):
 
 
 def _edges(points, cells, pairs):
-    """The mesh's edges: their sorted keys (n_edges,), each cell's edges as indices into them
-    (n_cells, n_local), and each cell's longest one as a local index (n_cells,).
+    """The edges of some simplices (a mesh's cells, or facets): their sorted keys (n_edges,),
+    each simplex's edges as indices into them (n, n_local), and each simplex's longest one as a
+    local index (n,).
 
-    Lengths are computed once per edge, so every cell around an edge sees the same number;
-    ties are broken by the key (the edges' order)."""
+    Lengths are computed once per edge, so every simplex around an edge sees the same number;
+    ties are broken by the key. The order (squared length, key) is a total order, the same for
+    any set of simplices: a facet and the cell on it agree on which of the facet's edges is
+    longest."""
     keys, ids = np.unique(_edge_keys(cells, pairs), return_inverse=True)
     ids = ids.reshape(cells.shape[0], pairs.shape[0])
     low, high = keys >> _SHIFT, keys & np.int64(0xFFFFFFFF)
@@ -164,7 +148,8 @@ def refine(mesh: Mesh, marked) -> RefinedMesh:
     pending = keys[ids[marked, best[marked]]]   # the longest edges of the marked cells
     while True:
         # closure: a cell with a split edge is cut across its longest, which is then split too
-        split = np.isin(keys, split_keys) | np.isin(keys, pending)
+        had = np.isin(keys, split_keys)
+        split = had | np.isin(keys, pending)
         longest = ids[np.arange(cells.shape[0]), best]
         while True:
             touched = split[ids].any(axis=1)
@@ -173,7 +158,7 @@ def refine(mesh: Mesh, marked) -> RefinedMesh:
             if add.size == 0:
                 break
             split[add] = True
-        new = keys[split & ~np.isin(keys, split_keys)]
+        new = keys[split & ~had]
         if new.size:
             a, b = new >> _SHIFT, new & np.int64(0xFFFFFFFF)
             mids = np.arange(points.shape[0], points.shape[0] + new.size, dtype=np.int64)
@@ -209,17 +194,16 @@ def _refine_facets(points, facets, split_keys, split_mid):
         return facets.copy()
     pairs = LOCAL_EDGES[facets.shape[1] - 1]
     while True:
-        keys = _edge_keys(facets, pairs)
-        touched = np.flatnonzero(np.isin(keys, split_keys).any(axis=1))
+        keys, ids, best = _edges(points, facets, pairs)
+        touched = np.flatnonzero(np.isin(keys, split_keys)[ids].any(axis=1))
         if touched.size == 0:
             return facets
-        best, tkeys = _longest(points, facets[touched], pairs)
-        cut = tkeys[np.arange(touched.size), best]
+        cut = keys[ids[touched, best[touched]]]
         at = np.searchsorted(split_keys, cut)
         if not np.all(split_keys[np.minimum(at, split_keys.size - 1)] == cut):
             raise RuntimeError("a boundary facet holds a split edge but its longest edge was not split:"
                                " the cells' and the facets' orders of edges disagree")
-        first, second = _bisect(facets[touched], pairs, best, split_mid[at])
+        first, second = _bisect(facets[touched], pairs, best[touched], split_mid[at])
         facets = facets.copy()
         facets[touched] = first
         facets = np.concatenate([facets, second])

@@ -172,11 +172,10 @@ class AdaptOptions:
 
 
 #: Defaults of an adaptive mesh, as fractions or multiples of eps: h_min = eps / 5 (the
-#: banded cases' eps/h), h_max = 4 eps; no buffer about the damage (one of 2 eps doubled the
-#: nodes and the time without changing the L-panel's crack: docs/adaptivity.md#marking).
+#: banded cases' eps/h), h_max = 4 eps. No buffer about the damage by default: one of 2 eps
+#: doubled the nodes and the time without changing the L-panel's crack (docs/adaptivity.md#measured).
 ADAPT_H_MIN_PER_EPS = 0.2
 ADAPT_H_MAX_PER_EPS = 4.0
-ADAPT_BUFFER_PER_EPS = 0.0
 
 
 @dataclass(frozen=True)
@@ -553,8 +552,8 @@ def _sizes(source, data, model, geometry):
         extent = record.extent_of(model.dim, geometry.options)   # None: not known before meshing
     side = math.inf if extent is None else extent.size
     if sizes.adapt is not None and sizes.adapt.h_max > 0.5 * side and not sizes.measured:
-        table.fail("h_coarse" if table.has("h_coarse") else "h_max", sizes.adapt.h_max, f"must be at most half the specimen's largest side, {side:.4g}: the"
-                   " first mesh would have fewer than two elements across it")
+        table.fail("h_coarse" if table.has("h_coarse") else "h_max", sizes.adapt.h_max, "must be at most half the"
+                   f" specimen's largest side, {side:.4g}: the first mesh would have fewer than two elements across it")
     if sizes.h > 0.5 * side:
         if sizes.adapt is not None:
             key, value = ("h" if table.has("h") else "h_min"), sizes.h
@@ -590,7 +589,7 @@ def _adapt_options(table, model, h_max):
     if alpha > 1.0:
         table.fail("adapt_alpha", alpha, "must be in (0, 1]: the damage at a vertex that marks its cells")
     energy = table.number("adapt_energy", minimum=0, default=0.5)
-    buffer = table.number("adapt_buffer", minimum=0, exclusive=False, default=ADAPT_BUFFER_PER_EPS * model.eps)
+    buffer = table.number("adapt_buffer", minimum=0, exclusive=False, default=0.0)
     return AdaptOptions(h_min=h_min, h_max=h_max, alpha=alpha, energy=energy, buffer=buffer)
 
 

@@ -132,3 +132,11 @@ def write_run(writer, meshes, versions, start=0):
                           mesh=mesh)
         written.append((u, alpha))
     return written
+
+
+def extends(fine, coarse):
+    """Whether refinement ``fine`` is ``coarse`` followed by zero or more passes."""
+    p = coarse.passes
+    return (p <= fine.passes and np.array_equal(fine.pass_nodes[: p + 1], coarse.pass_nodes)
+            and np.array_equal(fine.parents[: coarse.n_nodes], coarse.parents)
+            and all(np.array_equal(a, b) for a, b in zip(fine.marked, coarse.marked)))

@@ -201,20 +201,6 @@ class Refinement:
     def n_nodes(self) -> int:
         return int(self.pass_nodes[-1])
 
-    def truncated(self, passes):
-        """The refinement after its first ``passes`` passes (an earlier version of the mesh)."""
-        if not 0 <= passes <= self.passes:
-            raise ValueError(f"version {passes}: the refinement has versions 0 to {self.passes}")
-        n = int(self.pass_nodes[passes])
-        return Refinement(self.parents[:n], self.pass_nodes[: passes + 1], self.marked[:passes])
-
-    def extends(self, other) -> bool:
-        """True if this refinement is ``other`` followed by zero or more passes."""
-        p = other.passes
-        return (p <= self.passes and np.array_equal(self.pass_nodes[: p + 1], other.pass_nodes)
-                and np.array_equal(self.parents[: other.n_nodes], other.parents)
-                and all(np.array_equal(a, b) for a, b in zip(self.marked, other.marked)))
-
 
 def prolong(values, refinement, n_from, components=1):
     """A P1 nodal field on an earlier mesh of a refinement, carried to its last mesh.
@@ -273,6 +259,17 @@ def prolong(values, refinement, n_from, components=1):
 
 #: XDMF topology and cell name of each simplex dimension.
 _SIMPLICES = {1: ("Polyline", "segments"), 2: ("Triangle", "triangles"), 3: ("Tetrahedron", "tetrahedra")}
+
+
+def _simplex_topology(grid, dim, shape, path):
+    """Add the ``<Topology>`` of cells of ``shape`` (n_cells, dim + 1), stored at ``path``
+    (``file:/dataset``), to one time step's ``<Grid>``."""
+    n_cells, per_cell = shape
+    topology = ET.SubElement(grid, "Topology", TopologyType=_SIMPLICES[dim][0], NumberOfElements=str(n_cells),
+                             **({"NodesPerElement": "2"} if dim == 1 else {}))
+    item = ET.SubElement(topology, "DataItem", Dimensions=f"{n_cells} {per_cell}", NumberType="Int", Precision="8",
+                         Format="HDF")
+    item.text = path
 
 
 @dataclass(frozen=True, eq=False)
@@ -340,13 +337,7 @@ class SimplexMesh:
     def xdmf(self, grid, reference):
         """Add the topology and geometry of one time step's ``<Grid>`` (read from ``/mesh`` of
         the HDF5 file ``reference``); returns the field dimensions for scalar attributes."""
-        topology_type = _SIMPLICES[self.dim][0]
-        n_cells, per_cell = self.cells.shape
-        topology = ET.SubElement(grid, "Topology", TopologyType=topology_type, NumberOfElements=str(n_cells),
-                                 **({"NodesPerElement": "2"} if self.dim == 1 else {}))
-        item = ET.SubElement(topology, "DataItem", Dimensions=f"{n_cells} {per_cell}", NumberType="Int",
-                             Precision="8", Format="HDF")
-        item.text = f"{reference}:/mesh/cells"
+        _simplex_topology(grid, self.dim, self.cells.shape, f"{reference}:/mesh/cells")
         columns = max(self.dim, 2)
         geometry = ET.SubElement(grid, "Geometry", GeometryType="XY" if columns == 2 else "XYZ")
         item = ET.SubElement(geometry, "DataItem", Dimensions=f"{self.n_nodes} {columns}", NumberType="Float",
@@ -512,13 +503,8 @@ class StoredMeshes:
         ``/meshes/points``; returns the field dimensions for scalar attributes."""
         g = self.group
         n = self.n_nodes(version)
-        cells = g[f"cells_{int(version)}"]
-        n_cells, per_cell = cells.shape
-        topology = ET.SubElement(grid, "Topology", TopologyType=_SIMPLICES[self.dim][0],
-                                 NumberOfElements=str(n_cells), **({"NodesPerElement": "2"} if self.dim == 1 else {}))
-        item = ET.SubElement(topology, "DataItem", Dimensions=f"{n_cells} {per_cell}", NumberType="Int",
-                             Precision="8", Format="HDF")
-        item.text = f"{reference}:/{self.group_name}/cells_{int(version)}"
+        cells = f"cells_{int(version)}"
+        _simplex_topology(grid, self.dim, g[cells].shape, f"{reference}:/{self.group_name}/{cells}")
         rows, columns = g["points"].shape
         geometry = ET.SubElement(grid, "Geometry", GeometryType="XY" if columns == 2 else "XYZ")
         slab = ET.SubElement(geometry, "DataItem", ItemType="HyperSlab", Type="HyperSlab",

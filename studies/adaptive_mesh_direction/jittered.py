@@ -92,7 +92,8 @@ def compare(runs, banded):
                 k = min(r.n, b.n) - 1
                 length, jump = crack_lengths(r)
                 j = int(np.searchsorted(r.t, crack_events(r.t, length, jump)[0]["t"]))
-                rows.append({"run": Path(path).name, "u_c": float(r.t[j]), "F_c": round(float(r.steps["force"][j - 1]), 1),
+                rows.append({"run": Path(path).name, "u_c": float(r.t[j]),
+                             "F_c": round(float(r.steps["force"][j - 1]), 1),
                              "energy_vs_banded": round(float(r.steps["total"][k] / b.steps["total"][k] - 1.0), 4),
                              "crack_distance": round(crack_distance(r, k, b, k), 2), "at": float(r.t[k]),
                              "nodes": int(r.steps["nodes"][k]) if "nodes" in r.steps else r.discretization.n_nodes,

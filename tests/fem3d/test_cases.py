@@ -13,7 +13,7 @@ import json
 import numpy as np
 import pytest
 
-from fem3d.cracks import crack_through_depth, crack_tip, holes_reached
+from fem3d.cracks import crack_distance, crack_through_depth, crack_tip, holes_reached
 from fem3d.specimens.three_point_bending import HOLE_RADIUS, HOLES
 from tests.helpers import load_case
 from thinfilm.results.reader import Results
@@ -125,19 +125,29 @@ def _check_3d_panel(scene, res, k):
     assert 0.0 <= np.mean(rise) <= 43.0 and np.ptp(rise) <= 20.0, rise
 
 
-def test_lpanel_3d_coarse_crack_from_the_re_entrant_edge(tmp_path):
-    # eps = 30 mm, h = 15 mm (5,400 nodes, direct solver): the crack surface appears between
-    # 0.24 and 0.26 mm over the whole depth (Table 3.2's 2D u_c: 0.23-0.26 mm).
-    overrides = {"model.eps": 30.0, "mesh.h": 15.0, "mesh.h_coarse": 50.0,
-                 "load.t_max": None, "load.steps": None, "load.t": [0.0, 0.1, 0.2, 0.24, 0.26, 0.28],
-                 "output.snapshots": [0.28]}
-    scene = load_case("lpanel_3d", overrides)
+#: The 3D panel on a coarse mesh (eps = 30 mm, h = 15 mm, 50 mm elsewhere: 5,400 nodes, direct
+#: solver), loaded through the crack's appearance.
+COARSE_LPANEL_3D = {"model.eps": 30.0, "mesh.h": 15.0, "mesh.h_coarse": 50.0, "load.t_max": None, "load.steps": None,
+                    "load.t": [0.0, 0.1, 0.2, 0.24, 0.26, 0.28], "output.snapshots": [0.28]}
+
+
+def _check_3d_crack_appears(tmp_path, adapt):
+    """The coarse 3D panel's crack surface appears at 0.26 mm over more than 50 mm of the whole
+    depth, from the re-entrant edge (:func:`_check_3d_panel`); returns its step and the records."""
+    scene = load_case("lpanel_3d", dict(COARSE_LPANEL_3D, **{"mesh.adapt": adapt}))
     run(scene, tmp_path)
     with Results(tmp_path / "results.h5") as res:
         area = np.asarray(res.steps["surface"]) / scene.model.Gc   # mm^2
         k = int(np.argmax(np.diff(area))) + 1
         assert res.t[k] == 0.26 and area[k] - area[k - 1] > 50.0 * 100.0   # > 50 mm over the depth
         _check_3d_panel(scene, res, len(res.t) - 1)
+        return k, dict(res.steps)
+
+
+def test_lpanel_3d_coarse_crack_from_the_re_entrant_edge(tmp_path):
+    # the crack surface appears between 0.24 and 0.26 mm over the whole depth (Table 3.2's 2D
+    # u_c: 0.23-0.26 mm)
+    _check_3d_crack_appears(tmp_path, adapt=False)
 
 
 # The three-point bending beams (dissertation section 3.5.2). Without backtracking the crack
@@ -205,8 +215,6 @@ def test_lpanel_adaptive_against_its_banded_twin(tmp_path):
     fewer nodes; before the corner is refined the coarse first mesh is stiffer, within 3%.
     Measured to 0.27 mm: 0.255 mm both, +0.4%, at most 0.8%, 6.3 mm (at the tips), 5,577 nodes
     against 9,060; +2.1% in the elastic phase (docs/adaptivity.md#measured, to 0.3 mm)."""
-    from benchmarks.bench_adaptive import crack_distance
-
     runs = {}
     for name, adapt in (("banded", False), ("adaptive", True)):
         overrides = dict(COARSE_LPANEL, **{"mesh.h": 2.5, "mesh.adapt": adapt,
@@ -223,21 +231,13 @@ def test_lpanel_adaptive_against_its_banded_twin(tmp_path):
         assert adaptive.steps["refinements"][k] >= 1 and adaptive.steps["mesh"][-1] > adaptive.steps["mesh"][0]
         assert adaptive.steps["nodes"][-1] < banded.discretization.n_nodes
         last = adaptive.n - 1
-        assert crack_distance(adaptive, last, banded, last) <= 3 * 2.5
+        assert crack_distance(adaptive.discretization_at(last).points, adaptive.field("alpha", last),
+                              banded.discretization.points, banded.field("alpha", last)) <= 3 * 2.5
 
 
 @pytest.mark.slow   # 15-20 s; the default suite keeps 3D refinement and 3D files (test_refine, test_adaptive_results)
 def test_lpanel_3d_adaptive_crack_from_the_re_entrant_edge(tmp_path):
-    # the coarse 3D panel of the test above from a uniform mesh of 50 mm refined down to 15 mm
-    # where the crack goes: the crack surface at the same load, through the whole depth
-    overrides = {"model.eps": 30.0, "mesh.h": 15.0, "mesh.h_coarse": 50.0, "mesh.adapt": True,
-                 "load.t_max": None, "load.steps": None, "load.t": [0.0, 0.1, 0.2, 0.24, 0.26, 0.28],
-                 "output.snapshots": [0.28]}
-    scene = load_case("lpanel_3d", overrides)
-    run(scene, tmp_path)
-    with Results(tmp_path / "results.h5") as res:
-        area = np.asarray(res.steps["surface"]) / scene.model.Gc   # mm^2
-        k = int(np.argmax(np.diff(area))) + 1
-        assert res.t[k] == 0.26 and area[k] - area[k - 1] > 50.0 * 100.0
-        assert res.steps["nodes"][-1] > res.steps["nodes"][0] and res.steps["refinements"][k] >= 1
-        _check_3d_panel(scene, res, len(res.t) - 1)
+    # the coarse 3D panel from a uniform mesh of 50 mm refined down to 15 mm where the crack
+    # goes: the crack surface at the same load, through the whole depth
+    k, steps = _check_3d_crack_appears(tmp_path, adapt=True)
+    assert steps["nodes"][-1] > steps["nodes"][0] and steps["refinements"][k] >= 1

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.helpers import CASES, load_case
-from thinfilm.scene import SceneError, parse_scene
+from tests.helpers import CASES, ROOT, load_case
+from thinfilm.scene import SceneError, load_scene, parse_scene
 
 SCENE = """\
 [model]
@@ -66,6 +66,11 @@ def test_explicit_loads():
     (('fixed = ["bottom"]\n[load.displacement.load]\ny = 1.0', ""), "load.fixed: give load.fixed or"),
     (("y = 1.0", "y = 0.0"), "load: nothing loads the solid"),
     (("[load]", "[solver]\nbacktrack = \"sometimes\"\n[load]"), 'solver.backtrack = "sometimes": must be one of'),
+    (("h = 5.0", "h = 5.0\nh_min = 1.0"), "mesh.h_min = 1.0: is read only with mesh.adapt = true"),
+    (("h = 5.0", "adapt = true\nh = 5.0\nh_min = 1.0"), "mesh.h_min = 1.0: and mesh.h are the same size"),
+    (("h = 5.0", 'adapt = true\nh = 5.0\nadapt_alpha = 1.5'), "mesh.adapt_alpha = 1.5: must be in (0, 1]"),
+    (("h = 5.0", "adapt = true\nh = 5.0\nadapt_energy = 0"), "mesh.adapt_energy = 0: must be a positive number"),
+    (("h_coarse = 25.0", "h_coarse = 1.0\nadapt = true"), "mesh.h_coarse = 1.0: must be >= the smallest size, 5"),
 ])
 def test_bad_input_names_the_key(change, message):
     with pytest.raises(SceneError) as err:
@@ -158,19 +163,9 @@ def test_an_adaptive_mesh_reads_its_sizes_and_thresholds():
     assert parse_scene(SCENE).mesh.adapt is None
     case = load_case("lpanel", {"mesh.adapt": True}).mesh.adapt
     assert (case.h_min, case.h_max) == (0.625, 12.5)
-
-
-@pytest.mark.parametrize("change, message", [
-    (("h = 5.0", "h = 5.0\nh_min = 1.0"), "mesh.h_min = 1.0: is read only with mesh.adapt = true"),
-    (("h = 5.0", "adapt = true\nh = 5.0\nh_min = 1.0"), "mesh.h_min = 1.0: and mesh.h are the same size"),
-    (("h = 5.0", 'adapt = true\nh = 5.0\nadapt_alpha = 1.5'), "mesh.adapt_alpha = 1.5: must be in (0, 1]"),
-    (("h = 5.0", "adapt = true\nh = 5.0\nadapt_energy = 0"), "mesh.adapt_energy = 0: must be a positive number"),
-    (("h_coarse = 25.0", "h_coarse = 1.0\nadapt = true"), "mesh.h_coarse = 1.0: must be >= the smallest size, 5"),
-])
-def test_bad_adaptive_meshes_name_the_key(change, message):
-    with pytest.raises(SceneError) as err:
-        parse_scene(SCENE.replace(*change), source="x.toml")
-    assert message in str(err.value) and "\n" not in str(err.value)
+    # a mesh file is the first mesh: h_max its own largest element, measured
+    own = load_scene(ROOT / "examples" / "own_mesh" / "notched_plate.toml", overrides={"mesh.adapt": True}).mesh
+    assert own.measured and own.adapt.h_max == own.h_coarse > own.adapt.h_min == pytest.approx(0.02)   # eps / 5
 
 
 def test_an_adaptive_mesh_needs_p1():

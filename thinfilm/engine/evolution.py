@@ -573,6 +573,15 @@ class Engine:
                     best_alpha, best_total = alpha, total
         return best_alpha
 
+    def _search_and_check(self, state, t, lower, record, step):
+        """A converged state after the nucleation search and the stability check, where
+        enabled (not at t = 0)."""
+        if self.search.enabled and t > 0:
+            state = self._search(state, lower, record, step)
+        if self.stability.enabled and t > 0:
+            state = self._leave_saddles(state, lower, record, step)
+        return state
+
     # -- a discretization that refines itself ----------------------------------------------
     def _refine_and_solve(self, state, t, step, record, states, alpha_prev):
         """The corrector passes of step ``step`` (:class:`AdaptiveMesh`): while the model
@@ -606,10 +615,7 @@ class Engine:
                 self.newton_solver = IndefiniteSolver()
             state = self.alternate_minimization(t, transfer.alpha(state.alpha), lower, transfer.u(state.u), record,
                                                 step, history=states[:step])
-            if self.search.enabled and t > 0:
-                state = self._search(state, lower, record, step)
-            if self.stability.enabled and t > 0:
-                state = self._leave_saddles(state, lower, record, step)
+            state = self._search_and_check(state, t, lower, record, step)
 
     # -- the evolution --------------------------------------------------------------------
     @staticmethod
@@ -682,10 +688,7 @@ class Engine:
             try:
                 state = self.alternate_minimization(t, alpha_start, lower, u_start, record, i,
                                                     history=states[:i])
-                if self.search.enabled and t > 0:
-                    state = self._search(state, lower, record, i)
-                if self.stability.enabled and t > 0:
-                    state = self._leave_saddles(state, lower, record, i)
+                state = self._search_and_check(state, t, lower, record, i)
                 if self._adaptive is not None:
                     state, alpha_prev = self._refine_and_solve(state, t, i, record, states, alpha_prev)
                     lower = alpha_prev if i == 0 else states[i - 1].alpha

@@ -285,11 +285,6 @@ class Results:
             self._versions[version] = self.meshes.mesh(version)
         return self._versions[version]
 
-    def refinement_at(self, k):
-        """The :class:`~thinfilm.discretization.Refinement` of step ``k``'s mesh (None for a mesh
-        that is not refined)."""
-        return self.discretization_at(k).refinement if self.adaptive else None
-
     def _check_step(self, k):
         if not 0 <= k < self.n:
             raise IndexError(f"step {k} is not among the {self.n} finished steps")
@@ -302,7 +297,7 @@ class Results:
             return ds[()]
         self._check_step(k)
         if self.adaptive and ds.attrs.get("per_step", ds.ndim == 2):
-            return ds[k, : self.discretization_at(k).n_nodes * self.components(name)]
+            return ds[k, : self.meshes.n_nodes(self.mesh_version(k)) * self.components(name)]
         return ds[k]
 
     def field(self, name, k=None):
