@@ -122,11 +122,14 @@ def release_rate(results):
         width = p["thickness"] if int(p["dim"]) == 2 else float(np.ptp(results.discretization.points[:, 2]))
     width = math.nan if width == "none" else float(width)
     a0 = float(p.get("a0", 0.0))
+    nan_steps = np.full(len(results.t), np.nan)   # a file written before they were recorded
     # a jump is a growth of a crack band's width, 4 eps, at once (as crack_lengths counts an
     # event); below a hundredth of its peak elastic energy the specimen is cut through
     G, a = energy_release_rate(results.t, results.steps["elastic"], results.steps["surface"], p["Gc"],
                                width if math.isfinite(width) else 1.0, a0=a0, da_min=p["h"],
-                               jump=4.0 * p["eps"], carried=CUT_THROUGH, meshes=results.steps.get("mesh"))
+                               jump=4.0 * p["eps"], carried=CUT_THROUGH, meshes=results.steps.get("mesh"),
+                               previous=(results.steps.get("elastic_previous", nan_steps),
+                                         results.steps.get("surface_previous", nan_steps)))
     if not p.get("proportional", True) or not math.isfinite(width):
         # (4.16) dB/dt = 2B/t holds for a load proportional to t only: with a constant part
         # the steps alone do not give G; without a straight front there is no a

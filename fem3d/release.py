@@ -25,7 +25,7 @@ __all__ = ["energy_release_rate"]
 
 
 def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0, jump=np.inf, carried=0.0,
-                        meshes=None):
+                        meshes=None, previous=None):
     """G and the crack length at each recorded step.
 
     Parameters
@@ -55,7 +55,12 @@ def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0, 
     meshes : array_like of int, shape (n,), optional
         The version of each step's mesh (an adaptive run, docs/adaptivity.md#the-energy-release-rate):
         G is differenced only between steps on the same mesh, since a refinement changes the
-        bulk energy at a fixed crack (NaN otherwise).
+        bulk energy at a fixed crack (NaN otherwise), or across a refinement with ``previous``.
+    previous : tuple of array_like, shape (n,), optional
+        ``(elastic, surface)``: at a step whose mesh differs from the step before, the
+        energies of that earlier step's damage at its load solved on the step's own mesh
+        (:attr:`thinfilm.engine.records.StepRecord.elastic_previous`; NaN where not
+        computed). Such a step's G is then differenced from them, over that one step.
 
     Returns
     -------
@@ -69,6 +74,10 @@ def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0, 
     a = np.asarray(surface, dtype=float) / (Gc * thickness) + a0
     A = (a - a0) * thickness
     G = np.full(t.shape, np.nan)
+    if meshes is not None:
+        meshes = np.asarray(meshes)
+    B_previous, S_previous = (np.full(t.shape, np.nan),) * 2 if previous is None else \
+        (np.asarray(values, dtype=float) for values in previous)
     peak = np.maximum.accumulate(B) if len(B) else B
     jumps = np.flatnonzero(np.diff(a) > jump) + 1      # steps that end a jump
     for k in range(1, len(t)):
@@ -76,13 +85,24 @@ def energy_release_rate(t, elastic, surface, Gc, thickness, a0=0.0, da_min=0.0, 
             continue
         before = jumps[jumps < k]
         first = before[-1] if before.size else 0          # not across an earlier jump
-        same = np.ones(k, dtype=bool) if meshes is None else np.asarray(meshes)[:k] == np.asarray(meshes)[k]
-        grown = np.flatnonzero((a[k] - a[:k] >= max(da_min, 0.0)) & (t[:k] > 0) & (a[:k] < a[k])
-                               & (np.arange(k) >= first) & same)
-        if len(grown) == 0:
-            continue
-        j = grown[-1]
+        if meshes is not None and meshes[k] != meshes[k - 1]:
+            # refined at step k: only step k - 1, as re-solved on step k's mesh
+            if k - 1 < first or t[k - 1] <= 0:
+                continue
+            B_j = B_previous[k]
+            A_j = S_previous[k] / Gc
+            t_j = t[k - 1]
+            if not (np.isfinite(B_j) and np.isfinite(A_j)) or not A[k] - A_j >= max(da_min, 0.0) * thickness:
+                continue
+        else:
+            same = np.ones(k, dtype=bool) if meshes is None else meshes[:k] == meshes[k]
+            grown = np.flatnonzero((a[k] - a[:k] >= max(da_min, 0.0)) & (t[:k] > 0) & (a[:k] < a[k])
+                                   & (np.arange(k) >= first) & same)
+            if len(grown) == 0:
+                continue
+            j = grown[-1]
+            B_j, A_j, t_j = B[j], A[j], t[j]
         # B / t at the interval's middle (the mean of its ends): second order in the step
-        b_over_t = 0.5 * (B[j] / t[j] + B[k] / t[k])
-        G[k] = (2.0 * b_over_t * (t[k] - t[j]) - (B[k] - B[j])) / (A[k] - A[j])
+        b_over_t = 0.5 * (B_j / t_j + B[k] / t[k])
+        G[k] = (2.0 * b_over_t * (t[k] - t_j) - (B[k] - B_j)) / (A[k] - A_j)
     return G, a

@@ -233,6 +233,16 @@ def test_lpanel_adaptive_against_its_banded_twin(tmp_path):
         last = adaptive.n - 1
         assert crack_distance(adaptive.discretization_at(last).points, adaptive.field("alpha", last),
                               banded.discretization.points, banded.field("alpha", last)) <= 3 * 2.5
+        # each refined step re-solved its previous step's damage on its own mesh: the same
+        # surface energy (the damage carried exactly), and a bulk energy no higher, since the
+        # finer space of displacements contains the coarser one
+        refined = np.flatnonzero(np.asarray(adaptive.steps["refinements"])[1:] > 0) + 1
+        assert refined.size >= 2
+        previous = {name: np.asarray(adaptive.steps[f"{name}_previous"]) for name in ("elastic", "surface")}
+        np.testing.assert_allclose(previous["surface"][refined], adaptive.steps["surface"][refined - 1], rtol=1e-12)
+        assert np.all(previous["elastic"][refined] <= adaptive.steps["elastic"][refined - 1] * (1 + 1e-9))
+        assert np.any(previous["elastic"][refined] < adaptive.steps["elastic"][refined - 1] * (1 - 1e-4))
+        assert np.isnan(previous["elastic"][np.asarray(adaptive.steps["refinements"]) == 0]).all()
 
 
 @pytest.mark.slow   # 15-20 s; the default suite keeps 3D refinement and 3D files (test_refine, test_adaptive_results)

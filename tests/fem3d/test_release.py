@@ -91,3 +91,29 @@ def test_no_difference_across_a_refinement():
     assert np.isfinite(fixed[1:]).all()
     np.testing.assert_array_equal(adaptive[[1, 3, 4]], fixed[[1, 3, 4]])
     assert np.isnan(adaptive[2]) and np.isnan(adaptive[0])
+
+
+def test_difference_across_a_refinement_from_the_previous_step_on_the_new_mesh():
+    # A refinement at step 2 softens the specimen (bulk energy 0.9 of the coarse one at the
+    # same crack). Given step 1's energies on step 2's mesh, step 2's G is the difference a
+    # run on the fine mesh throughout would give over steps 1-2; without them, NaN.
+    t = np.array([0.5, 1.0, 1.5, 2.0, 2.5])
+    a_len = np.array([1.0, 1.2, 1.4, 1.6, 1.8])
+    factor = np.array([1.0, 1.0, 0.9, 0.9, 0.9])
+    B = factor * 3.0 * t ** 2 / a_len
+    S = 2.0 * a_len
+    fine, _ = energy_release_rate(t, 0.9 * 3.0 * t ** 2 / a_len, S, 2.0, 1.0)
+    elastic_previous = np.full(5, np.nan)
+    surface_previous = np.full(5, np.nan)
+    elastic_previous[2], surface_previous[2] = 0.9 * 3.0 * t[1] ** 2 / a_len[1], S[1]
+    G, _ = energy_release_rate(t, B, S, 2.0, 1.0, meshes=[0, 0, 1, 1, 1],
+                               previous=(elastic_previous, surface_previous))
+    np.testing.assert_allclose(G[2:], fine[2:], rtol=1e-14)
+    across, _ = energy_release_rate(t, B, S, 2.0, 1.0)     # the coarse energy differenced with the fine
+    assert abs(across[2] - fine[2]) > 0.1 * fine[2]
+    G_none, _ = energy_release_rate(t, B, S, 2.0, 1.0, meshes=[0, 0, 1, 1, 1])
+    assert np.isnan(G_none[2])
+    # a step that grew less than da_min over the refined step: NaN, not a difference further back
+    G_short, _ = energy_release_rate(t, B, S, 2.0, 1.0, da_min=0.3, meshes=[0, 0, 1, 1, 1],
+                                     previous=(elastic_previous, surface_previous))
+    assert np.isnan(G_short[2])

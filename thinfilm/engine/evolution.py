@@ -592,6 +592,13 @@ class Engine:
         transferred state starts where the coarse one ended: the front that crossed coarse
         elements is not sent back to the step's start.
 
+        When the step refined, the previous step's damage is also solved for ``u`` at its own
+        load on the final discretization, and its energies recorded
+        (:attr:`StepRecord.elastic_previous`): a refinement lowers the bulk energy at a fixed
+        crack, so an energy difference between two steps means something only on one mesh
+        (the energy release rate, :func:`fem3d.release.energy_release_rate`). One u-solve per
+        refined step; the evolution does not see it.
+
         Returns
         -------
         state : State
@@ -602,6 +609,8 @@ class Engine:
         while True:
             transfer = self._adaptive.refine(state.u, state.alpha, t)
             if transfer is None:
+                if record.refinements and step > 0:
+                    self._previous_on_this_mesh(states[step - 1], record)
                 return state, alpha_prev
             record.refinements += 1
             for k, s in enumerate(states):
@@ -616,6 +625,15 @@ class Engine:
             state = self.alternate_minimization(t, transfer.alpha(state.alpha), lower, transfer.u(state.u), record,
                                                 step, history=states[:step])
             state = self._search_and_check(state, t, lower, record, step)
+
+    def _previous_on_this_mesh(self, previous, record):
+        """Record the energies of the ``previous`` step's damage at its load, ``u`` solved on
+        the current discretization; the u-solve cache (what the next step may rescale) is
+        left as it was."""
+        cache = self._u_cache
+        u = self._solve_u(previous.alpha, previous.t, previous.u, self.altmin.u_rtol_min, record)
+        record.elastic_previous, record.surface_previous = self.model.energies(u, previous.alpha, previous.t)
+        self._u_cache = cache
 
     # -- the evolution --------------------------------------------------------------------
     @staticmethod

@@ -75,6 +75,10 @@ class StepRecord:
     refinements : int
         Corrector passes of the step: times the model refined its discretization around the
         converged state and the step was solved again (:class:`thinfilm.engine.protocol.AdaptiveMesh`).
+    elastic_previous, surface_previous : float
+        A step that refined the discretization: the energies of the previous step's damage
+        at the previous load, with ``u`` solved on this step's final discretization (the pair
+        an energy difference across the refinement needs); NaN otherwise.
     energy_history : list of float
         Total energy after every half-step of alternate minimization (non-increasing).
     """
@@ -109,6 +113,8 @@ class StepRecord:
     factorizations: int = 0
     kkt_final: float = math.nan
     refinements: int = 0
+    elastic_previous: float = math.nan
+    surface_previous: float = math.nan
     energy_history: list = field(default_factory=list)
 
 

@@ -75,7 +75,8 @@ STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_
                "backtracks", "trials", "trials_accepted", "time_u", "time_alpha", "time_total",
                "lowest_curvature", "saddles_left", "u_rescalable", "kkt", "stopped_by_energy",
                "newton_steps", "newton_attempts", "newton_failures", "newton_rejections", "inertia_corrections",
-               "linear_solves", "factorizations", "kkt_final", "time_newton", "refinements")
+               "linear_solves", "factorizations", "kkt_final", "time_newton", "refinements",
+               "elastic_previous", "surface_previous")
 #: The integer ones among them (and the kinds' observables that count).
 INTEGER_STEP_FIELDS = ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials", "trials_accepted",
                        "saddles_left", "u_rescalable", "stopped_by_energy", "threads", "newton_steps",
