@@ -55,6 +55,12 @@ CASES = {
     "lpanel_fine": ("cases/lpanel_fine.toml", [], []),
     "lpanel_coarse": ("cases/lpanel.toml", ["model.eps=12.5", "mesh.h=2.5", "mesh.h_coarse=25.0"], []),
     "lpanel_3d": ("cases/lpanel_3d.toml", [], []),
+    "brokenshire": ("cases/brokenshire.toml", [], []),
+    # the double-torsion fracture run of docs/cases.md#double-torsion-with-damage: (4.11) with
+    # a T/3 buffer of E/1e3, at the resolution of its measured table
+    "double_torsion": ("cases/double_torsion.toml", ["mesh.h=0.6", "mesh.h_coarse=1.0", "model.eps=1.8",
+                                                     "load.t_max=0.06", "load.steps=20", "geometry.buffer=1.0",
+                                                     "model.buffers.buffer=72.0"], []),
 }
 QUICK = ("lpanel_coarse",)
 FIELDS = ["id", "case", "mesh", "wall_s", "steps_s", "speedup", "peak_gb", "steps", "nodes_first", "nodes_last",
