@@ -60,7 +60,8 @@ CASES = {
     # a T/3 buffer of E/1e3, at the resolution of its measured table
     "double_torsion": ("cases/double_torsion.toml", ["mesh.h=0.6", "mesh.h_coarse=1.0", "model.eps=1.8",
                                                      "load.t_max=0.06", "load.steps=20", "geometry.buffer=1.0",
-                                                     "model.buffers.buffer=72.0"], []),
+                                                     "model.buffers.buffer=72.0",
+                                                     "output.snapshots=[0.015, 0.03, 0.045, 0.06]"], []),
 }
 QUICK = ("lpanel_coarse",)
 FIELDS = ["id", "case", "mesh", "wall_s", "steps_s", "speedup", "peak_gb", "steps", "nodes_first", "nodes_last",

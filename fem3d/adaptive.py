@@ -34,10 +34,13 @@ from thinfilm.discretization import Refinement, SimplexMesh, prolong
 __all__ = ["AdaptiveModel", "Transfer", "onset_density", "mark", "near_damage", "refine_pass"]
 
 
-def onset_density(at, Gc, eps):
+def onset_density(at, Gc, eps, law=None):
     r"""The undamaged elastic energy density at which a homogeneous bar starts to damage
-    (AT1: :math:`3 G_c / (16 \epsilon)`) or, for AT2, which damages at once, at which its
-    stress peaks (:math:`G_c / (6 \epsilon)`) (energy per volume; docs/adaptivity.md#marking)."""
+    (AT1: :math:`3 G_c / (16 \epsilon)`; the cohesive law ``law``: :math:`f_t^2 / (2 E)`) or,
+    for AT2, which damages at once, at which its stress peaks (:math:`G_c / (6 \epsilon)`)
+    (energy per volume; docs/adaptivity.md#marking)."""
+    if law is not None and not law.quadratic:
+        return law.ft ** 2 / (2.0 * law.E)
     return 3.0 * Gc / (16.0 * eps) if at == 1 else Gc / (6.0 * eps)
 
 
@@ -139,6 +142,8 @@ class AdaptiveModel:
     at : {1, 2}
     Gc, eps : float
         The material's toughness and length (for :func:`onset_density`).
+    law : thinfilm.laws.DamageLaw, optional
+        The cohesive law, whose onset density is its own.
 
     Attributes
     ----------
@@ -151,10 +156,10 @@ class AdaptiveModel:
         How the current mesh was made from the first.
     """
 
-    def __init__(self, mesh, build, options, *, at, Gc, eps):
+    def __init__(self, mesh, build, options, *, at, Gc, eps, law=None):
         self.first_mesh = self.mesh = mesh
         self.build, self.options = build, options
-        self.onset, self.eps = onset_density(at, Gc, eps), eps
+        self.onset, self.eps = onset_density(at, Gc, eps, law), eps
         self.model = build(mesh)
         self.refinement = Refinement.initial(mesh.n_nodes)
 

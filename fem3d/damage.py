@@ -52,6 +52,8 @@ class P1Damage(DamageOperator):
         ``T`` > 0 in 2D; must be 1 in 3D.
     fixed_nodes : array of int, optional
         Nodes where the damage is held at 0, sorted without repeats.
+    law : thinfilm.laws.DamageLaw, optional
+        A law other than AT1/AT2 (the cohesive law): :class:`thinfilm.damage.DamageOperator`.
 
     Attributes
     ----------
@@ -68,7 +70,7 @@ class P1Damage(DamageOperator):
     """
 
     def __init__(self, mesh: Mesh, Gc: float, eps: float, *, at: int = 1, thickness: float = 1.0,
-                 fixed_nodes=None):
+                 fixed_nodes=None, law=None):
         grads, measure = mesh_geometry(mesh)
         self.mesh = mesh
         # checked here too so that an error names the scene's keys (Gc, eps), not the shared ones
@@ -86,4 +88,4 @@ class P1Damage(DamageOperator):
         kernels.laplacian_values(grads, measure, mesh.cells, indptr, indices, data)
         L = sp.csr_matrix((data, indices, indptr), shape=(n, n))
         L.has_sorted_indices = True
-        super().__init__(L, omega, Gc, eps, at=at, thickness=thickness, fixed_nodes=fixed_nodes)
+        super().__init__(L, omega, Gc, eps, at=at, thickness=thickness, fixed_nodes=fixed_nodes, law=law)

@@ -11,7 +11,7 @@ quadrature points (``docs/model.md#second-order-information``). So
 
     d2P / du dalpha_i = sum_{e ni i} g'(alpha_i) / (d + 1) K_e^+ u_e,
 
-``g'(a) = -2 (1 - a)``. The cell forces ``F_e = K_e^+ u_e`` are
+``g'(a) = -2 (1 - a)`` (a law's own ``g'`` for the cohesive law). The cell forces ``F_e = K_e^+ u_e`` are
 ``F_e[k, a] = T |e| sum_q w_q sigma^+_q[a, b] G_qk[b]`` (``G_qk`` the gradient of local basis
 function ``k`` at point ``q``, ``sigma^+ = lam^+ tr(e) I + 2 mu^+ e`` with the degraded part's
 Lame parameters ``(lam^+, mu^+)``, the coefficient of ``gbar`` in
@@ -103,7 +103,7 @@ def cross_block(elasticity, u, alpha, tension=None, fixed_nodes=None) -> sp.csr_
     nv = mesh.cells.shape[1]
     V = sp.csr_matrix((np.full(mesh.cells.size, 1.0 / nv), (np.repeat(np.arange(n_cells), nv), mesh.cells.ravel())),
                       shape=(n_cells, mesh.n_nodes))
-    dg = -2.0 * (1.0 - np.asarray(alpha, dtype=np.float64))
+    dg = el.degradation_slope(alpha)
     if fixed_nodes is not None and len(fixed_nodes):
         dg = dg.copy()
         dg[fixed_nodes] = 0.0

@@ -62,6 +62,7 @@ from fem3d import kernels, split as splits
 from fem3d.elements.p1 import P1Space
 from fem3d.elements.space import Space
 from fem3d.mesh import Mesh
+from thinfilm.laws import AT1
 from thinfilm.options import index_array, real_in_range
 
 __all__ = ["Elasticity", "lame_parameters"]
@@ -117,6 +118,9 @@ class Elasticity:
     space : fem3d.elements.space.Space, optional
         The displacement's element on ``mesh`` (:func:`fem3d.elements.make_space`); default
         P1 (:class:`fem3d.elements.p1.P1Space`).
+    law : thinfilm.laws.DamageLaw, optional
+        The damage law whose ``g`` replaces ``(1 - a)^2`` (the cohesive law's rational
+        degradation); default AT's.
 
     Attributes
     ----------
@@ -146,7 +150,7 @@ class Elasticity:
     """
 
     def __init__(self, mesh: Mesh, E: float, nu: float, *, plane: str = "stress", thickness: float = 1.0,
-                 k_res: float = 1e-6, constrained=None, modulus=None, split: str = "none", space=None):
+                 k_res: float = 1e-6, constrained=None, modulus=None, split: str = "none", space=None, law=None):
         if not isinstance(mesh, Mesh):
             raise TypeError(f"mesh = {mesh!r} must be a fem3d.mesh.Mesh")
         space = P1Space(mesh) if space is None else space
@@ -155,6 +159,7 @@ class Elasticity:
         self.space = space
         self.grads, self.measure = space.grads, space.measure
         self.mesh = mesh
+        self.law = AT1() if law is None else law     # only g matters here: AT1's is AT2's
         self._set_material(E, nu, plane, thickness, k_res, modulus, split)
         self._set_dofs(space.cells, space.points, constrained)
 
@@ -269,8 +274,8 @@ class Elasticity:
         return x
 
     def degradation(self, alpha) -> np.ndarray:
-        """Cell degradation ``gbar_e``, the mean of ``(1 - alpha)^2 + k_res`` at the cell's
-        vertices, shape (n_cells,).
+        """Cell degradation ``gbar_e``, the mean of ``g(alpha) + k_res`` at the cell's
+        vertices, shape (n_cells,) (``g = (1 - a)^2`` unless the law has its own).
 
         Parameters
         ----------
@@ -278,7 +283,14 @@ class Elasticity:
             Damage at the mesh's vertices.
         """
         alpha = self._vector("alpha", alpha, self.mesh.n_nodes)
-        return kernels.cell_degradation(alpha, self.mesh.cells, self.k_res)
+        if self.law.quadratic:
+            return kernels.cell_degradation(alpha, self.mesh.cells, self.k_res)
+        return self.law.g(alpha)[self.mesh.cells].mean(axis=1) + self.k_res
+
+    def degradation_slope(self, alpha) -> np.ndarray:
+        """``g'(alpha)`` at the vertices, shape (n_nodes,) (the cross block's factor,
+        :func:`fem3d.derivatives.cross_block`)."""
+        return self.law.dg(self._vector("alpha", alpha, self.mesh.n_nodes))
 
     def tension(self, u) -> np.ndarray:
         """The switch ``H(tr e)`` at every point of the displacement ``u``: True where it is in

@@ -85,8 +85,9 @@ def build_model(scene, mesh):
         modulus[mesh.cell_groups[region]] = E_b / m.E
     fixed_nodes = np.unique(np.concatenate(fixed)) if fixed else None
     elasticity = Elasticity(mesh, m.E, m.nu, plane=m.plane if m.dim == 2 else "stress", thickness=m.thickness,
-                            k_res=m.k_res, constrained=loads.constrained, modulus=modulus, split=m.split, space=space)
-    damage = P1Damage(mesh, m.Gc, m.eps, at=m.at, thickness=m.thickness, fixed_nodes=fixed_nodes)
+                            k_res=m.k_res, constrained=loads.constrained, modulus=modulus, split=m.split, space=space,
+                            law=m.damage_law())
+    damage = P1Damage(mesh, m.Gc, m.eps, at=m.at, thickness=m.thickness, fixed_nodes=fixed_nodes, law=m.damage_law())
     K = elasticity.matrix(np.zeros(mesh.n_nodes))
     kind = scene.solver.linear
     if kind == "auto":
@@ -208,7 +209,8 @@ class FemKind(EvolutionKind):
         if adapt is not None:
             from fem3d.adaptive import AdaptiveModel
 
-            model = AdaptiveModel(mesh, lambda refined: build_model(scene, refined), adapt, at=m.at, Gc=m.Gc, eps=m.eps)
+            model = AdaptiveModel(mesh, lambda refined: build_model(scene, refined), adapt, at=m.at, Gc=m.Gc, eps=m.eps,
+                                  law=m.damage_law())
             first = "from the file" if scene.mesh.measured else f"of h_max = {adapt.h_max:g}"
             buffer = f" (and {adapt.buffer:g} about it)" if adapt.buffer else ""
             sizes_line = (f" adaptive, the first mesh {first}, refined down to h_min = {adapt.h_min:g}"
@@ -260,6 +262,7 @@ class FemKind(EvolutionKind):
         m, g = scene.model, scene.geometry
         front_width, a0 = crack_front(scene)   # the energy release rate's a = S / (Gc width) + a0
         return {"dim": m.dim, "E": m.E, "nu": m.nu, "Gc": m.Gc, "eps": m.eps, "k_res": m.k_res, "at": m.at,
+                **({"law": m.law, "ft": m.ft, "softening": m.softening} if m.law == "czm" else {}),
                 "plane": m.plane, "thickness": m.thickness, "undamaged": ",".join(m.undamaged),
                 "buffers": ",".join(f"{name}:{E_b:g}" for name, E_b in m.buffers), "split": m.split,
                 "front_width": front_width, "a0": a0,

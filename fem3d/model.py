@@ -22,6 +22,7 @@ import numpy as np
 from fem3d.derivatives import cross_block
 from fem3d.elements.p1 import P1Space
 from fem3d.mesh import Mesh
+from thinfilm.damage import DamageEnergy
 from thinfilm.scene import SceneError
 
 __all__ = ["Loads", "FemModel"]
@@ -251,7 +252,8 @@ class FemModel:
     def damage_problem(self, u, t):
         # the damage operator's nodal energy e has P = 1/2 sum e_i g_i, the elasticity's c has
         # P = sum c_i g_i (docs/model.md#the-discrete-damage-problem): e = 2 c, exact
-        return self.damage.problem(2.0 * self.elasticity.nodal_energy(u))
+        e = 2.0 * self.elasticity.nodal_energy(u)
+        return self.damage.problem(e) if self.damage.at is not None else self.damage.energy(e)
 
     def energies(self, u, alpha, t):
         work = float(self.loads.force_at(t) @ u)
@@ -307,8 +309,12 @@ class FemModel:
         tension = self._switch(u)
         K = el.matrix(alpha, tension=tension)
         g_u = K @ u[el.free] - el.rhs(alpha, u[el.constrained], self.loads.force_at(t), tension=tension)
-        A, b = self.damage_problem(u, t)
-        return g_u, A @ np.asarray(alpha, dtype=np.float64) - b
+        problem = self.damage_problem(u, t)
+        alpha = np.asarray(alpha, dtype=np.float64)
+        if isinstance(problem, DamageEnergy):
+            return g_u, problem.gradient(alpha)
+        A, b = problem
+        return g_u, A @ alpha - b
 
     def hessian_blocks(self, u, alpha, t):
         """``(K_uu, K_ua, K_aa)``, fresh sparse matrices.
@@ -325,5 +331,7 @@ class FemModel:
         tension = self._switch(u)
         K_uu = el.matrix(alpha, tension=tension).copy()
         K_ua = cross_block(el, u, alpha, tension=tension, fixed_nodes=self.damage.fixed_nodes)
-        A, _ = self.damage_problem(u, t)
-        return K_uu, K_ua, A.copy()
+        problem = self.damage_problem(u, t)
+        if isinstance(problem, DamageEnergy):
+            return K_uu, K_ua, problem.hessian(np.asarray(alpha, dtype=np.float64))
+        return K_uu, K_ua, problem[0].copy()

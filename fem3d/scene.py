@@ -13,7 +13,10 @@ the whole slab, not per unit thickness. ::
     Gc = 0.095              # toughness (energy per unit crack area)
     eps = 3.125             # regularization length
     k_res = 1e-6            # residual stiffness of g = (1 - alpha)^2 + k_res
-    at = 1                  # AT1 (default) or AT2
+    at = 1                  # AT1 (default) or AT2; or instead:
+    # law = "czm"           # Wu's cohesive law (docs/model.md#the-cohesive-law), with
+    # ft = 2.7              #   the tensile strength and
+    # softening = "linear"  #   "linear", "exponential" or "cornelissen"
     plane = "stress"        # 2D only: "stress" or "strain"
     thickness = 100.0       # 2D only
     undamaged = ["gray"]    # regions (cell groups) where alpha is held at 0
@@ -60,6 +63,7 @@ from fem3d.elements import ELEMENTS as ELEMENT_REGISTRY
 from fem3d.mesh_check import FINE_PERCENTILE, element_sizes, fine_size
 from fem3d.specimens.specimen import Extent
 from fem3d.split import SPLITS
+from thinfilm.laws import LAWS, SOFTENING, law_from_name
 from thinfilm.scene import SceneError, SolverSettings, Table, read_snapshots, read_solver, require_tables, show
 
 __all__ = ["FemModelParameters", "Geometry", "MeshSizes", "Loading", "FemScene", "parse"]
@@ -92,7 +96,8 @@ class FemModelParameters:
         Regularization length.
     k_res : float
         Residual stiffness.
-    at : {1, 2}
+    at : {0, 1, 2}
+        AT1 or AT2; 0 with the cohesive law.
     plane : {"stress", "strain"}
         2D only (3D: "none").
     thickness : float
@@ -107,6 +112,12 @@ class FemModelParameters:
     element : {"P1", "P2"}
         The displacement's element (:mod:`fem3d.elements`); the damage is
         P1 on the vertices either way.
+    law : {"at1", "at2", "czm"}
+        The damage law (:mod:`thinfilm.laws`).
+    ft : float
+        The cohesive law's tensile strength (None otherwise).
+    softening : str
+        The cohesive law's softening curve (:data:`thinfilm.laws.SOFTENING`).
     """
 
     dim: int
@@ -122,6 +133,13 @@ class FemModelParameters:
     buffers: tuple = ()
     split: str = "none"
     element: str = "P1"
+    law: str = "at1"
+    ft: float | None = None
+    softening: str = "linear"
+
+    def damage_law(self):
+        """The :class:`thinfilm.laws.DamageLaw` of these parameters."""
+        return law_from_name(self.law, E=self.E, Gc=self.Gc, ft=self.ft, eta=self.eps, softening=self.softening)
 
 
 @dataclass(frozen=True)
@@ -298,7 +316,8 @@ def _path(table, key):
 
 def _model(source, data):
     model = Table(source, "model", data["model"], ("kind", "dim", "E", "nu", "Gc", "eps", "k_res", "at", "plane",
-                                                   "thickness", "undamaged", "buffers", "split", "element"))
+                                                   "thickness", "undamaged", "buffers", "split", "element", "law",
+                                                   "ft", "softening"))
     dim = model.integer("dim", minimum=2)
     if dim not in (2, 3):
         model.fail("dim", dim, "must be 2 or 3")
@@ -308,6 +327,19 @@ def _model(source, data):
     at = model.integer("at", minimum=1, default=1)
     if at not in (1, 2):
         model.fail("at", at, "must be 1 (AT1) or 2 (AT2)")
+    law = model.choice("law", LAWS, default=f"at{at}")
+    if model.has("law") and model.has("at"):
+        model.fail("at", at, f'is the law\'s older spelling: give law = "{law}" alone')
+    ft, softening = None, "linear"
+    if law == "czm":
+        at = 0
+        ft = model.number("ft", minimum=0)
+        softening = model.choice("softening", tuple(SOFTENING), default="linear")
+    else:
+        at = int(law[2])
+        for key in ("ft", "softening"):
+            if model.has(key):
+                model.fail(key, model.data[key], 'is a key of the cohesive law (law = "czm") only')
     if dim == 3:
         for key in ("plane", "thickness"):
             if model.has(key):
@@ -320,7 +352,8 @@ def _model(source, data):
                               eps=model.number("eps", minimum=0), k_res=model.number("k_res", minimum=0, default=1e-6),
                               at=at, plane=plane, thickness=thickness, undamaged=_names(model, "undamaged"),
                               buffers=_buffers(model), split=model.choice("split", SPLITS, default="none"),
-                              element=model.choice("element", ELEMENTS, default="P1"))
+                              element=model.choice("element", ELEMENTS, default="P1"), law=law, ft=ft,
+                              softening=softening)
 
 
 def _buffers(model):

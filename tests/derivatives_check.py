@@ -17,7 +17,8 @@ def observed_order(steps, errors) -> float:
     return float(np.polyfit(np.log(steps), np.log(errors), 1)[0])
 
 
-def check_energy_derivatives(model, u, alpha, t, seed=0, steps=STEPS, smallest=1e-4, exact=1e-8):
+def check_energy_derivatives(model, u, alpha, t, seed=0, steps=STEPS, smallest=1e-4, exact=1e-8,
+                             quadratic_alpha=True):
     """Assert the gradient and the Hessian blocks of ``model`` at ``(u, alpha, t)``.
 
     * ``u_from_free(free_u(u), t) == u`` and the blocks' shapes;
@@ -28,7 +29,8 @@ def check_energy_derivatives(model, u, alpha, t, seed=0, steps=STEPS, smallest=1
       the same order and bound, relative to ``|H d|``;
     * along ``(0, dalpha)`` and ``(du, 0)`` the gradient is quadratic (``g(alpha)`` is, and E
       is quadratic in ``u``), so the central difference is exact: ``(K_ua dalpha,
-      K_aa dalpha)`` and ``(K_uu du, K_ua^T du)`` to ``exact`` (relative), each block alone.
+      K_aa dalpha)`` and ``(K_uu du, K_ua^T du)`` to ``exact`` (relative), each block alone;
+      with ``quadratic_alpha=False`` (the cohesive law's rational ``g``) only along ``(du, 0)``.
 
     Parameters
     ----------
@@ -74,7 +76,7 @@ def check_energy_derivatives(model, u, alpha, t, seed=0, steps=STEPS, smallest=1
             assert errors[-1] < smallest, errors
         h = steps[0]
         zero_u, zero_a = np.zeros(n_u), np.zeros(n_a)
-        for du_, da_ in ((zero_u, da), (du, zero_a)):
+        for du_, da_ in ((zero_u, da), (du, zero_a)) if quadratic_alpha else ((du, zero_a),):
             fd = (gradient(x + h * du_, alpha + h * da_) - gradient(x - h * du_, alpha - h * da_)) / (2 * h)
             expected = hessian(du_, da_)
             for part, ref in ((fd[:n_u], expected[:n_u]), (fd[n_u:], expected[n_u:])):

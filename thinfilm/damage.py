@@ -27,6 +27,15 @@ displacement is ``1/2 alpha.A.alpha - b.alpha + const`` with::
 ``k_res`` enters only ``const``. ``A`` is symmetric, positive definite for AT2, and for AT1
 as soon as ``e > 0`` at one node of each connected part of the graph of ``L``.
 
+A law that is not quadratic (the cohesive law of :mod:`thinfilm.laws`, with its own ``w``,
+``g`` and ``c_w = 4 c_m``) has the damage energy at fixed displacement::
+
+    F(alpha) = sum_n [ c_n g(alpha_n) + s_n w(alpha_n) ] + 1/2 alpha.K.alpha,
+    c = e / 2,   s = cs T omega / eta,   K = 2 cs eta T L
+
+(:class:`DamageEnergy`): separable nodal terms plus the same Laplacian, which
+:func:`thinfilm.solvers.box_newton.solve_box_newton` minimizes over the box.
+
 Fixed nodes (``docs/model.md#buffer-layers-and-fixed-regions``): their rows and columns are
 decoupled, ``A_ii = 1``, ``b_i = -1``, the off-diagonal entries removed from the pattern. The
 minimizer in that coordinate, ``-1``, lies below the lower bound (>= 0), so the bound holds
@@ -43,9 +52,10 @@ import math
 import numpy as np
 import scipy.sparse as sp
 
+from thinfilm.laws import AT1, AT2, DamageLaw
 from thinfilm.options import index_array, real_in_range
 
-__all__ = ["DamageOperator", "c_m"]
+__all__ = ["DamageOperator", "DamageEnergy", "c_m"]
 
 
 def c_m(at: int) -> float:
@@ -83,17 +93,23 @@ class DamageOperator:
     eta : float
         Regularization length, > 0.
     at : {1, 2}
-        AT1 (``alpha^m = alpha``) or AT2 (``alpha^2``).
+        AT1 (``alpha^m = alpha``) or AT2 (``alpha^2``); ignored with ``law``.
     thickness : float
         ``T`` > 0: the thickness of a 2D slab whose energies are the whole slab's; 1 otherwise.
     fixed_nodes : array of int, optional
         Nodes where the damage is held at 0, sorted without repeats.
+    law : thinfilm.laws.DamageLaw, optional
+        A law that is not quadratic (the cohesive law): its ``w`` and ``c_w`` make the surface
+        energy, :meth:`energy` its damage energy (and :meth:`problem` is refused). An AT law
+        here is the same as its ``at``.
 
     Attributes
     ----------
     toughness, eta, thickness, cs : float
-        ``cs = toughness / (4 c_m)``.
-    at : int
+        ``cs = toughness / (4 c_m)`` (``toughness / c_w``).
+    at : int or None
+        1 or 2 for an AT law, None otherwise.
+    law : thinfilm.laws.DamageLaw
     L : scipy.sparse.csr_matrix
         The ``L`` given; do not modify.
     omega : ndarray, shape (n,)
@@ -109,7 +125,7 @@ class DamageOperator:
     """
 
     def __init__(self, L, omega, toughness: float, eta: float, *, at: int = 1, thickness: float = 1.0,
-                 fixed_nodes=None):
+                 fixed_nodes=None, law: DamageLaw | None = None):
         if not sp.issparse(L) or L.format != "csr" or L.ndim != 2 or L.shape[0] != L.shape[1]:
             raise ValueError(f"L must be a square scipy.sparse CSR matrix, got {type(L).__name__}"
                              f" of shape {getattr(L, 'shape', None)}")
@@ -123,8 +139,16 @@ class DamageOperator:
         self.toughness = real_in_range("toughness", toughness, 0.0, math.inf, True, True)
         self.eta = real_in_range("eta", eta, 0.0, math.inf, True, True)
         self.thickness = real_in_range("thickness", thickness, 0.0, math.inf, True, True)
-        self.cs = self.toughness / (4.0 * c_m(at))
-        self.at = int(at)
+        if law is not None and law.quadratic:
+            at, law = {"at1": 1, "at2": 2}[law.name], None
+        if law is None:
+            self.cs = self.toughness / (4.0 * c_m(at))
+            self.at = int(at)
+            self.law = AT1() if self.at == 1 else AT2()
+        else:
+            self.cs = self.toughness / law.c_w
+            self.at = None
+            self.law = law
         self.L, self.omega = L, omega
         self.fixed_nodes = _fixed_nodes(fixed_nodes, n)
 
@@ -148,11 +172,12 @@ class DamageOperator:
         self._A = sp.csr_matrix((2.0 * cs * eta * T * data, A_indices, A_indptr), shape=(n, n))
         self._A.has_sorted_indices = True
         self._diag_fixed = self._A.data[self._diag_pos].copy()
+        self._diag_laplacian = self._diag_fixed.copy()    # K's (energy)
         if self.at == 2:
             self._diag_fixed += 2.0 * cs * T / eta * omega
             self._linear = np.zeros(n)
         else:
-            self._linear = cs * T / eta * omega
+            self._linear = cs * T / eta * omega   # AT1's b; a nonlinear law's s
 
     @property
     def n_nodes(self) -> int:
@@ -173,7 +198,7 @@ class DamageOperator:
         alpha : ndarray, shape (n,)
         """
         alpha = self._nodal("alpha", alpha)
-        local = float(np.dot(self.omega, alpha if self.at == 1 else alpha * alpha))
+        local = float(np.dot(self.omega, alpha if self.at == 1 else alpha * alpha if self.at == 2 else self.law.w(alpha)))
         return self.cs * self.thickness * (local / self.eta + self.eta * float(alpha @ (self.L @ alpha)))
 
     def surface_density(self, alpha) -> np.ndarray:
@@ -192,8 +217,8 @@ class DamageOperator:
             Energy per node.
         """
         alpha = self._nodal("alpha", alpha)
-        return self.cs * self.thickness * (self.omega * alpha**self.at / self.eta
-                                           + self.eta * alpha * (self.L @ alpha))
+        local = alpha**self.at if self.at is not None else self.law.w(alpha)
+        return self.cs * self.thickness * (self.omega * local / self.eta + self.eta * alpha * (self.L @ alpha))
 
     def problem(self, e) -> tuple[sp.csr_matrix, np.ndarray]:
         """``(A, b)`` of the damage problem for the nodal energy ``e`` (module docstring), the
@@ -213,6 +238,8 @@ class DamageOperator:
         b : ndarray, shape (n,)
             A new array.
         """
+        if self.at is None:
+            raise ValueError(f"the {self.law.name} law's damage energy is not quadratic: use energy(e)")
         e = self._nodal("e", e)
         diag = self._diag_fixed + e
         b = e - self._linear
@@ -221,6 +248,92 @@ class DamageOperator:
             b[self.fixed_nodes] = -1.0
         self._A.data[self._diag_pos] = diag
         return self._A, b
+
+
+    def energy(self, e) -> "DamageEnergy":
+        """The damage energy at fixed displacement for the nodal energy ``e`` (module
+        docstring), up to a constant, for any law.
+
+        Parameters
+        ----------
+        e : ndarray, shape (n,)
+            Nodal undamaged elastic energy, >= 0 (as for :meth:`problem`).
+        """
+        e = self._nodal("e", e)
+        K = sp.csr_matrix((self._A.data.copy(), self._A.indices, self._A.indptr), shape=self._A.shape)
+        K.has_sorted_indices = True
+        K.data[self._diag_pos] = self._diag_laplacian
+        return DamageEnergy(self.law, 0.5 * e, self.cs * self.thickness / self.eta * self.omega, K, self._diag_pos,
+                            self.fixed_nodes)
+
+
+class DamageEnergy:
+    """The damage energy at fixed displacement of any law (module docstring)::
+
+        F(alpha) = sum_n [ c_n g(alpha_n) + s_n w(alpha_n) ] + 1/2 alpha.K.alpha
+
+    with the fixed nodes decoupled as in :meth:`DamageOperator.problem` (their rows of ``K``
+    are the identity and their terms ``alpha_n``: a gradient of 1 holds them at the lower
+    bound 0).
+
+    Parameters
+    ----------
+    law : thinfilm.laws.DamageLaw
+    c, s : ndarray, shape (n,)
+        Nodal weights of ``g`` and ``w`` (energy units).
+    K : scipy.sparse.csr_matrix, shape (n, n)
+        ``2 cs eta T L`` with the fixed nodes decoupled; owned by the object.
+    diag_pos : ndarray of int
+        Positions of the diagonal entries in ``K.data``, in row order.
+    fixed_nodes : ndarray of int
+    """
+
+    def __init__(self, law, c, s, K, diag_pos, fixed_nodes):
+        self.law, self.K, self._diag_pos = law, K, diag_pos
+        self.c, self.s = np.array(c, dtype=float), np.array(s, dtype=float)
+        self.fixed_nodes = fixed_nodes
+        self.c[fixed_nodes] = 0.0
+        self.s[fixed_nodes] = 0.0
+        self._K_diag = K.data[diag_pos].copy()
+        self._K_diag[fixed_nodes] = 1.0
+        K.data[diag_pos] = self._K_diag
+        self._unit = np.zeros(K.shape[0])
+        self._unit[fixed_nodes] = 1.0     # the fixed nodes' linear term
+
+    @property
+    def n(self) -> int:
+        return self.K.shape[0]
+
+    def value(self, alpha) -> float:
+        """``F(alpha)`` (energy units, up to a constant)."""
+        law = self.law
+        return float(self.c @ law.g(alpha) + self.s @ law.w(alpha) + 0.5 * alpha @ (self.K @ alpha)
+                     + self._unit @ alpha)
+
+    def gradient(self, alpha) -> np.ndarray:
+        """``dF/dalpha``, shape (n,)."""
+        law = self.law
+        return self.c * law.dg(alpha) + self.s * law.dw(alpha) + self.K @ alpha + self._unit
+
+    def curvature(self, alpha) -> np.ndarray:
+        """The nodal part of the Hessian, ``c g'' + s w''``, shape (n,) (0 at fixed nodes)."""
+        law = self.law
+        return self.c * law.d2g(alpha) + self.s * law.d2w(alpha)
+
+    def hessian(self, alpha) -> sp.csr_matrix:
+        """``d2F/dalpha^2 = K + diag(curvature)``, a new matrix."""
+        H = self.K.copy()
+        H.data[self._diag_pos] += self.curvature(alpha)
+        return H
+
+    def convex_model(self, alpha) -> tuple[sp.csr_matrix, np.ndarray]:
+        """``(A, b)``: the convex quadratic model ``1/2 x.A.x - b.x`` of ``F`` about ``alpha``,
+        with ``F``'s gradient there and the Hessian's nodal part replaced by its absolute
+        value (a negative curvature, as ``w'' = -2`` of the cohesive law, would make the model
+        unbounded; its size keeps the step's scale). ``A`` is a new matrix."""
+        A = self.K.copy()
+        A.data[self._diag_pos] += np.abs(self.curvature(alpha))
+        return A, A @ alpha - self.gradient(alpha)
 
 
 def _fixed_nodes(value, n) -> np.ndarray:

@@ -14,9 +14,10 @@ L, H, T = 10.0, 1.0, 2.0
 E, NU, GC, EPS, K_RES = 1000.0, 0.3, 0.01, 0.2, 1e-6
 
 
-def strip_mesh(nx=100, ny=10):
-    """Right triangles with alternating diagonals on the strip, with its ends as groups."""
-    x, y = np.meshgrid(np.linspace(0.0, L, nx + 1), np.linspace(0.0, H, ny + 1))
+def strip_mesh(nx=100, ny=10, length=L, height=H):
+    """Right triangles with alternating diagonals on the strip ``(0, length) x (0, height)``,
+    with its ends as groups."""
+    x, y = np.meshgrid(np.linspace(0.0, length, nx + 1), np.linspace(0.0, height, ny + 1))
     points = np.column_stack([x.ravel(), y.ravel()])
     index = np.arange(points.shape[0]).reshape(ny + 1, nx + 1)
     cells = []

@@ -15,13 +15,15 @@ from fem3d.model import FemModel, Loads
 from fem3d.scene import Loading
 from tests.derivatives_check import check_energy_derivatives, interior_damage
 from tests.fem3d.meshes import small_mesh
+from thinfilm.laws import CohesiveLaw
 from thinfilm.solvers.linear import make_solver
 
 E, NU, GC, EPS, K_RES = 3.0, 0.3, 1.2, 0.2, 1e-6
 
 
 def model_on(dim, element="P1", plane="stress", thickness=1.0, split="none", at=1, modulus=False):
-    """A jittered small mesh, its left side fixed, its right side pulled in x, a force in y on it."""
+    """A jittered small mesh, its left side fixed, its right side pulled in x, a force in y on
+    it; ``at = 0``: the cohesive law (linear softening, ft = 0.5)."""
     base = small_mesh(dim)
     x = base.points[:, 0]
     mesh = Mesh(base.points, base.cells, node_groups={"left": np.flatnonzero(np.isclose(x, x.min())),
@@ -33,8 +35,9 @@ def model_on(dim, element="P1", plane="stress", thickness=1.0, split="none", at=
     loads = Loads(mesh, loading, thickness, space=space)
     cell_modulus = np.random.default_rng(7).uniform(0.5, 2.0, mesh.n_cells) if modulus else None
     elasticity = Elasticity(mesh, E, NU, plane=plane, thickness=thickness, k_res=K_RES, constrained=loads.constrained,
-                            modulus=cell_modulus, split=split, space=space)
-    damage = P1Damage(mesh, GC, EPS, at=at, thickness=thickness)
+                            modulus=cell_modulus, split=split, space=space,
+                            law=CohesiveLaw(E, GC, 0.5, EPS) if at == 0 else None)
+    damage = P1Damage(mesh, GC, EPS, at=at or 1, thickness=thickness, law=elasticity.law if at == 0 else None)
     solver = make_solver("direct", elasticity.matrix(np.zeros(mesh.n_nodes)))
     return FemModel(mesh, elasticity, damage, loads, solver)
 
@@ -53,12 +56,17 @@ def random_state(model, t, seed=0):
     (2, "P2", "strain", 2.5, 1),
     (3, "P1", None, 1.0, 2),
     (3, "P2", None, 1.0, 1),
+    (2, "P1", "stress", 0.3, 0),
+    (3, "P1", None, 1.0, 0),
 ])
 def test_gradient_and_hessian_blocks_match_finite_differences(dim, element, plane, thickness, at):
     model = model_on(dim, element, plane or "stress", thickness, at=at, modulus=True)
     t = 0.7
     u, alpha = random_state(model, t)
-    check_energy_derivatives(model, u, alpha, t)
+    if at == 0:   # the cohesive law: g rational, so smaller steps for the same fitted order
+        check_energy_derivatives(model, u, alpha, t, steps=(2e-3, 1e-3, 5e-4), quadratic_alpha=False)
+    else:
+        check_energy_derivatives(model, u, alpha, t)
 
 
 @pytest.mark.parametrize("split", ["amor", "positive"])

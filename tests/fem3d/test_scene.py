@@ -45,6 +45,15 @@ def test_a_scene_reads_into_its_parts():
     assert dict(scene.geometry.options) == {}   # model.dim reaches lpanel when it is meshed
 
 
+def test_the_cohesive_law_reads_its_keys():
+    m = parse_scene(SCENE.replace("nu = 0.3", 'nu = 0.3\nlaw = "czm"\nft = 2.7\nsoftening = "cornelissen"')).model
+    assert (m.law, m.ft, m.softening, m.at) == ("czm", 2.7, "cornelissen", 0)
+    law = m.damage_law()
+    assert (law.E, law.Gc, law.ft, law.eta, law.softening) == (1000.0, 0.01, 2.7, 0.5, "cornelissen")
+    assert parse_scene(SCENE.replace("nu = 0.3", 'nu = 0.3\nlaw = "at2"')).model.at == 2
+    assert parse_scene(SCENE).model.law == "at1"
+
+
 def test_explicit_loads():
     scene = parse_scene(SCENE.replace("t_max = 0.1\nsteps = 4", "t = [0.0, 0.05, 0.08, 0.1]"))
     assert scene.load.values == (0.0, 0.05, 0.08, 0.1) and scene.load.t_max == 0.1 and scene.load.steps == 3
@@ -71,6 +80,12 @@ def test_explicit_loads():
     (("h = 5.0", 'adapt = true\nh = 5.0\nadapt_alpha = 1.5'), "mesh.adapt_alpha = 1.5: must be in (0, 1]"),
     (("h = 5.0", "adapt = true\nh = 5.0\nadapt_energy = 0"), "mesh.adapt_energy = 0: must be a positive number"),
     (("h_coarse = 25.0", "h_coarse = 1.0\nadapt = true"), "mesh.h_coarse = 1.0: must be >= the smallest size, 5"),
+    (("nu = 0.3", 'nu = 0.3\nlaw = "czm"'), "model.ft: missing"),
+    (("nu = 0.3", 'nu = 0.3\nlaw = "czm"\nft = -2.7'), "model.ft = -2.7: must be a positive number"),
+    (("nu = 0.3", 'nu = 0.3\nlaw = "czm"\nft = 2.7\nsoftening = "bilinear"'), 'model.softening = "bilinear": must be'),
+    (("nu = 0.3", 'nu = 0.3\nft = 2.7'), 'model.ft = 2.7: is a key of the cohesive law (law = "czm") only'),
+    (("nu = 0.3", 'nu = 0.3\nlaw = "at2"\nat = 2'), 'model.at = 2: is the law\'s older spelling'),
+    (("nu = 0.3", 'nu = 0.3\nlaw = "AT1"'), 'model.law = "AT1": must be one of "at1"'),
 ])
 def test_bad_input_names_the_key(change, message):
     with pytest.raises(SceneError) as err:

@@ -52,8 +52,9 @@ from thinfilm.engine.newton import newton_minimize, state_kkt
 from thinfilm.engine.options import (AltMinOptions, BacktrackOptions, EngineOptions, NewtonOptions, SearchOptions,
                                      StabilityOptions)
 from thinfilm.engine.protocol import (AdaptiveMesh, AffineLoad, DamageProjection, EnergyDerivatives, FractureModel,
-                                      StabilityModes, TrialStates)
+                                      NonlinearDamage, StabilityModes, TrialStates)
 from thinfilm.engine.records import State, StepRecord
+from thinfilm.solvers.box_newton import solve_box_newton
 from thinfilm.solvers.boxqp import solve_box_qp
 from thinfilm.solvers.errors import SolverError
 from thinfilm.solvers.linear.indefinite import IndefiniteSolver
@@ -188,9 +189,13 @@ class Engine:
 
     def _solve_alpha(self, u, t, alpha, lower, record, step, iteration):
         start = time.perf_counter()
-        A, b = self.model.damage_problem(u, t)
+        problem = self.model.damage_problem(u, t)
         try:
-            result = solve_box_qp(A, b, lower, 1.0, a0=alpha, rtol=self.altmin.damage_rtol)
+            if isinstance(problem, NonlinearDamage):   # a law that is not quadratic: Newton on the box
+                result = solve_box_newton(problem, lower, 1.0, a0=alpha, rtol=self.altmin.damage_rtol)
+            else:
+                A, b = problem
+                result = solve_box_qp(A, b, lower, 1.0, a0=alpha, rtol=self.altmin.damage_rtol)
         except SolverError as err:
             raise EvolutionError(f"step {step} (t = {t:g}), alternate-minimization iteration {iteration}:"
                                  f" damage solver failed: {err}") from err

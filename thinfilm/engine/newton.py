@@ -147,7 +147,8 @@ def state_kkt(model, u, alpha, lower, t) -> float:
     :class:`thinfilm.engine.protocol.EnergyDerivatives`: gradients only, no Hessian."""
     g_u, g_a = model.energy_gradient(u, alpha, t)
     # before load_norm: a model may rewrite the damage problem's arrays at its next call
-    diagonal = model.damage_problem(u, t)[0].diagonal()
+    problem = model.damage_problem(u, t)
+    diagonal = problem[0].diagonal() if isinstance(problem, tuple) else problem.convex_model(alpha)[0].diagonal()
     return kkt_residual(g_u, g_a, load_norm(model, g_u.size, alpha, t), alpha, lower, diagonal)
 
 

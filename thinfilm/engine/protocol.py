@@ -59,7 +59,12 @@ class FractureModel(Protocol):
         """Minimize the energy over u at fixed alpha (warm start ``u0``, relative tolerance ``rtol``)."""
 
     def damage_problem(self, u: np.ndarray, t: float):
-        """``(A, b)`` with ``E(u, alpha) = 1/2 alpha.A.alpha - b.alpha + const(u, t)``; A sparse SPD."""
+        """``(A, b)`` with ``E(u, alpha) = 1/2 alpha.A.alpha - b.alpha + const(u, t)``; A sparse SPD.
+
+        A model whose damage energy at fixed ``u`` is not quadratic (the cohesive law) returns
+        a :class:`thinfilm.damage.DamageEnergy` instead (value, gradient, Hessian and a convex
+        model); the engine then solves the damage step by bound-constrained Newton
+        (:func:`thinfilm.solvers.box_newton.solve_box_newton`)."""
 
     def energies(self, u: np.ndarray, alpha: np.ndarray, t: float) -> tuple[float, float]:
         """Elastic energy ``P`` and surface energy ``S``."""
@@ -153,6 +158,24 @@ class EnergyDerivatives(Protocol):
         """``(K_uu, K_ua, K_aa)``, sparse: ``d2E/du_free^2``, shape ``(n_u_free, n_u_free)``;
         ``d2E/du_free dalpha``, shape ``(n_u_free, n_alpha)``; ``d2E/dalpha^2``, shape
         ``(n_alpha, n_alpha)``. Fresh matrices, owned by the caller."""
+
+
+@runtime_checkable
+class NonlinearDamage(Protocol):
+    """A damage energy at fixed ``u`` that is not quadratic (:class:`thinfilm.damage.DamageEnergy`),
+    as :meth:`FractureModel.damage_problem` may return it: what
+    :func:`thinfilm.solvers.box_newton.solve_box_newton` needs."""
+
+    n: int
+
+    def value(self, alpha: np.ndarray) -> float:
+        """The energy (up to a constant)."""
+
+    def gradient(self, alpha: np.ndarray) -> np.ndarray:
+        """Its gradient, shape ``(n,)``."""
+
+    def convex_model(self, alpha: np.ndarray) -> tuple:
+        """``(A, b)``: a convex quadratic model about ``alpha`` with the energy's gradient there."""
 
 
 class FieldTransfer(Protocol):
