@@ -328,7 +328,9 @@ class FemKind(EvolutionKind):
         p = parameters
         length, force = units_of(p)
         stress, toughness = (f" {force}/{length}$^2$", f" {force}/{length}") if length else ("", "")
-        return (f"AT{p.get('at', '?')}, E = {p.get('E', float('nan')):g}{stress},"
+        law = (f"PF-CZM ({p['softening']}, ft = {p['ft']:g}{stress})" if p.get("law") == "czm"
+               else f"AT{p.get('at', '?')}")
+        return (f"{law}, E = {p.get('E', float('nan')):g}{stress},"
                 f" Gc = {p.get('Gc', float('nan')):g}{toughness}, $\\epsilon$ = {p.get('eps', float('nan')):g}"
                 f"{' ' + length if length else ''}")
 
