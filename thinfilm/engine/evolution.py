@@ -193,6 +193,7 @@ class Engine:
         try:
             if isinstance(problem, NonlinearDamage):   # a law that is not quadratic: Newton on the box
                 result = solve_box_newton(problem, lower, 1.0, a0=alpha, rtol=self.altmin.damage_rtol)
+                record.damage_newton_iterations += result.iterations
             else:
                 A, b = problem
                 result = solve_box_qp(A, b, lower, 1.0, a0=alpha, rtol=self.altmin.damage_rtol)

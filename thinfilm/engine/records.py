@@ -75,6 +75,10 @@ class StepRecord:
     refinements : int
         Corrector passes of the step: times the model refined its discretization around the
         converged state and the step was solved again (:class:`thinfilm.engine.protocol.AdaptiveMesh`).
+    damage_newton_iterations : int
+        Bound-constrained Newton iterations (box QPs) of the damage steps, for a damage energy
+        that is not quadratic (:func:`thinfilm.solvers.box_newton.solve_box_newton`); 0 for
+        the AT laws, whose damage step is one QP.
     elastic_previous, surface_previous : float
         A step that refined the discretization: the energies of the previous step's damage
         at the previous load, with ``u`` solved on this step's final discretization (the pair
@@ -113,6 +117,7 @@ class StepRecord:
     factorizations: int = 0
     kkt_final: float = math.nan
     refinements: int = 0
+    damage_newton_iterations: int = 0
     elastic_previous: float = math.nan
     surface_previous: float = math.nan
     energy_history: list = field(default_factory=list)

@@ -76,12 +76,13 @@ STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "u_solves", "u_
                "lowest_curvature", "saddles_left", "u_rescalable", "kkt", "stopped_by_energy",
                "newton_steps", "newton_attempts", "newton_failures", "newton_rejections", "inertia_corrections",
                "linear_solves", "factorizations", "kkt_final", "time_newton", "refinements",
-               "elastic_previous", "surface_previous")
+               "elastic_previous", "surface_previous", "damage_newton_iterations")
 #: The integer ones among them (and the kinds' observables that count).
 INTEGER_STEP_FIELDS = ("iterations", "u_solves", "u_solves_skipped", "backtracks", "trials", "trials_accepted",
                        "saddles_left", "u_rescalable", "stopped_by_energy", "threads", "newton_steps",
                        "newton_attempts", "newton_failures", "newton_rejections", "inertia_corrections",
-                       "linear_solves", "factorizations", "mesh", "refinements", "nodes", "cells")
+                       "linear_solves", "factorizations", "mesh", "refinements", "nodes", "cells",
+                       "damage_newton_iterations")
 #: The per-step lists of summary.json (those a file written before they existed lacks are left out).
 SUMMARY_STEP_FIELDS = ("t", "elastic", "surface", "total", "iterations", "newton_steps", "newton_rejections",
                        "linear_solves", "factorizations", "kkt_final")
