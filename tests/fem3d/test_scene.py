@@ -93,7 +93,8 @@ def test_bad_input_names_the_key(change, message):
     assert message in str(err.value) and "\n" not in str(err.value)
 
 
-@pytest.mark.parametrize("name", ["lpanel", "lpanel_fine", "lpanel_3d", "three_point_bending_I", "three_point_bending_II"])
+@pytest.mark.parametrize("name", ["lpanel", "lpanel_fine", "lpanel_3d", "lpanel_czm", "three_point_bending_I",
+                                  "three_point_bending_II"])
 def test_the_case_files_are_valid(name):
     scene = load_case(name)
     assert scene.kind == "fem"
