@@ -225,7 +225,7 @@ def opening(law, sigma):
     sigma^2 / (2 E g^2)``, has the first integral ``Gc / c_w (w(a) / eta - eta a'^2) =
     sigma^2 / (2 E) (1 / g(a) - 1)``; the band's peak damage ``a_c`` has ``a' = 0`` and the
     opening is the band's strain beyond the elastic one,
-    ``w = 2 Int_0^a_c sigma / E (1 / g - 1) / a' da`` (Wu 2017, section 4). Quadrature (scipy).
+    ``w = 2 Int_0^a_c sigma / E (1 / g - 1) / a' da`` (the 1D analysis of Wu 2017). Quadrature (scipy).
 
     Parameters
     ----------
