@@ -144,3 +144,20 @@ def test_an_adaptive_run_extended_is_the_longer_run_bit_for_bit(tmp_path):
     for name, value in reference.items():
         if not name.startswith("steps/time_"):
             np.testing.assert_array_equal(resumed[name], value, err_msg=name)
+
+
+def test_a_cohesive_run_extended_is_the_longer_run_bit_for_bit(tmp_path):
+    """The coarse panel with the cohesive law (its damage steps by bound-constrained Newton),
+    stopped after the peak and resumed with the whole list, is the uninterrupted run bit for
+    bit: every step's records, the Newton iterations among them, and fields."""
+    cohesive = {**COARSE, "model.law": "czm", "model.ft": 2.7, "model.softening": "cornelissen"}
+    full, out = tmp_path / "full", tmp_path / "out"
+    _run(full, overrides=cohesive)
+    _run(out, overrides={**cohesive, "load.t": COARSE["load.t"][:10], "output.snapshots": [0.1]})
+    _run(out, "--resume", overrides=cohesive)
+    reference, resumed = _read(full / "results.h5"), _read(out / "results.h5")
+    assert reference["steps/damage_newton_iterations"][9:].sum() > 0 and reference["steps/surface"][-1] > 0
+    assert resumed.keys() == reference.keys()
+    for name, value in reference.items():
+        if not name.startswith("steps/time_"):
+            np.testing.assert_array_equal(resumed[name], value, err_msg=name)
