@@ -84,10 +84,11 @@ def build_model(scene, mesh):
     for region, E_b in m.buffers:
         modulus[mesh.cell_groups[region]] = E_b / m.E
     fixed_nodes = np.unique(np.concatenate(fixed)) if fixed else None
+    law = m.damage_law()
     elasticity = Elasticity(mesh, m.E, m.nu, plane=m.plane if m.dim == 2 else "stress", thickness=m.thickness,
                             k_res=m.k_res, constrained=loads.constrained, modulus=modulus, split=m.split, space=space,
-                            law=m.damage_law())
-    damage = P1Damage(mesh, m.Gc, m.eps, at=m.at, thickness=m.thickness, fixed_nodes=fixed_nodes, law=m.damage_law())
+                            law=law)
+    damage = P1Damage(mesh, m.Gc, m.eps, at=m.at, thickness=m.thickness, fixed_nodes=fixed_nodes, law=law)
     K = elasticity.matrix(np.zeros(mesh.n_nodes))
     kind = scene.solver.linear
     if kind == "auto":

@@ -198,7 +198,7 @@ class DamageOperator:
         alpha : ndarray, shape (n,)
         """
         alpha = self._nodal("alpha", alpha)
-        local = float(np.dot(self.omega, alpha if self.at == 1 else alpha * alpha if self.at == 2 else self.law.w(alpha)))
+        local = float(np.dot(self.omega, self.law.w(alpha)))
         return self.cs * self.thickness * (local / self.eta + self.eta * float(alpha @ (self.L @ alpha)))
 
     def surface_density(self, alpha) -> np.ndarray:
@@ -217,8 +217,8 @@ class DamageOperator:
             Energy per node.
         """
         alpha = self._nodal("alpha", alpha)
-        local = alpha**self.at if self.at is not None else self.law.w(alpha)
-        return self.cs * self.thickness * (self.omega * local / self.eta + self.eta * alpha * (self.L @ alpha))
+        return self.cs * self.thickness * (self.omega * self.law.w(alpha) / self.eta
+                                           + self.eta * alpha * (self.L @ alpha))
 
     def problem(self, e) -> tuple[sp.csr_matrix, np.ndarray]:
         """``(A, b)`` of the damage problem for the nodal energy ``e`` (module docstring), the
@@ -248,7 +248,6 @@ class DamageOperator:
             b[self.fixed_nodes] = -1.0
         self._A.data[self._diag_pos] = diag
         return self._A, b
-
 
     def energy(self, e) -> "DamageEnergy":
         """The damage energy at fixed displacement for the nodal energy ``e`` (module
@@ -320,19 +319,22 @@ class DamageEnergy:
         law = self.law
         return self.c * law.d2g(alpha) + self.s * law.d2w(alpha)
 
+    def _K_plus_diagonal(self, d):
+        """``K + diag(d)``, a new matrix."""
+        M = self.K.copy()
+        M.data[self._diag_pos] += d
+        return M
+
     def hessian(self, alpha) -> sp.csr_matrix:
         """``d2F/dalpha^2 = K + diag(curvature)``, a new matrix."""
-        H = self.K.copy()
-        H.data[self._diag_pos] += self.curvature(alpha)
-        return H
+        return self._K_plus_diagonal(self.curvature(alpha))
 
     def convex_model(self, alpha) -> tuple[sp.csr_matrix, np.ndarray]:
         """``(A, b)``: the convex quadratic model ``1/2 x.A.x - b.x`` of ``F`` about ``alpha``,
         with ``F``'s gradient there and the Hessian's nodal part replaced by its absolute
         value (a negative curvature, as ``w'' = -2`` of the cohesive law, would make the model
         unbounded; its size keeps the step's scale). ``A`` is a new matrix."""
-        A = self.K.copy()
-        A.data[self._diag_pos] += np.abs(self.curvature(alpha))
+        A = self._K_plus_diagonal(np.abs(self.curvature(alpha)))
         return A, A @ alpha - self.gradient(alpha)
 
 

@@ -48,6 +48,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from thinfilm.engine.protocol import NonlinearDamage
 from thinfilm.solvers.errors import SolverError
 from thinfilm.solvers.kernels import kkt_violation
 from thinfilm.solvers.linear.indefinite import IndefiniteSolver
@@ -148,7 +149,8 @@ def state_kkt(model, u, alpha, lower, t) -> float:
     g_u, g_a = model.energy_gradient(u, alpha, t)
     # before load_norm: a model may rewrite the damage problem's arrays at its next call
     problem = model.damage_problem(u, t)
-    diagonal = problem[0].diagonal() if isinstance(problem, tuple) else problem.convex_model(alpha)[0].diagonal()
+    A = problem.convex_model(alpha)[0] if isinstance(problem, NonlinearDamage) else problem[0]
+    diagonal = A.diagonal()
     return kkt_residual(g_u, g_a, load_norm(model, g_u.size, alpha, t), alpha, lower, diagonal)
 
 
