@@ -95,6 +95,21 @@ def test_damage_energy_derivatives_and_its_minimizer():
     assert result.a.max() > 0.1        # it damaged: a real test of the minimizer
 
 
+def test_newton_converges_quadratically_where_the_damage_is_small():
+    # small damage (alpha < 0.07) with a1 = 1.7: the nodal curvature c g'' + s w'' is
+    # negative, the convex model's |curvature| steps converge linearly (measured: 20
+    # iterations to 1e-10), the free-set Newton steps quadratically once the active set is
+    # identified (measured: 4)
+    mesh = small_mesh(2, jitter=0.1)
+    eta, ft = 0.3, 5.0
+    op = P1Damage(mesh, GC, eta, law=CohesiveLaw(E, GC, ft, eta, "linear"), fixed_nodes=[0, 1])
+    e = 2.0 * 1.05 * ft ** 2 / (2.0 * E) * op.omega * np.random.default_rng(0).uniform(0.5, 1.2, mesh.n_nodes)
+    result = solve_box_newton(op.energy(e), np.zeros(mesh.n_nodes), 1.0, rtol=1e-10)
+    assert 0.01 < result.a.max() < 0.1 and result.iterations <= 6
+    r = result.kkt_residuals
+    assert r[-1] <= 1e-10 and r[-2] <= 10.0 * r[-3] ** 2 / r[0]
+
+
 def test_the_quadratic_laws_keep_their_qp():
     # AT1's damage energy through the general interface is the QP's, and Newton solves it in
     # one QP to the same point

@@ -174,6 +174,9 @@ class NonlinearDamage(Protocol):
     def gradient(self, alpha: np.ndarray) -> np.ndarray:
         """Its gradient, shape ``(n,)``."""
 
+    def hessian(self, alpha: np.ndarray):
+        """Its Hessian, sparse, shape ``(n, n)``; a new matrix."""
+
     def convex_model(self, alpha: np.ndarray) -> tuple:
         """``(A, b)``: a convex quadratic model about ``alpha`` with the energy's gradient there."""
 
