@@ -231,6 +231,13 @@ class FemKind(EvolutionKind):
                  f"u-solve: {model.linear_solver.kind}, {m.element}, {model.elasticity.free.size} free dofs;"
                  f" damage held at 0 on {0 if model.damage.fixed_nodes is None else model.damage.fixed_nodes.size}"
                  " nodes"]
+        if m.law == "czm":
+            # the material's characteristic length: the cohesive law's softening is the
+            # material's only where the damage band, a few eps wide, is well inside it
+            # (docs/cases.md#three-point-bending-with-the-cohesive-law)
+            l_ch = m.E * m.Gc / m.ft ** 2
+            lines.append(f"cohesive law: {m.softening} softening, ft = {m.ft:g}; l_ch = E Gc / ft^2 = {l_ch:.4g},"
+                         f" eps / l_ch = {m.eps / l_ch:.3g}")
 
         def observe(u, alpha, t):
             forces = model.forces(u, alpha, t)
