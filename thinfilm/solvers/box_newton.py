@@ -16,21 +16,19 @@ and the energy decreases at every iteration. Where ``F``'s curvature is positive
 is not degenerate); where it is negative its absolute value is used, which keeps the model's
 step at the scale of the curvature rather than unbounded.
 
-That absolute value costs Newton's speed where the damage is small: the cohesive law's
-nodal curvature ``c g'' + s w''`` is negative there (``w'' = -2``) while the full Hessian,
-with the gradient term's stiffness, is positive definite on the free nodes, and the convex
-model's steps then shrink by a constant factor per iteration (measured: 0.8, 50 iterations
-short of 1e-9 on a damage zone of 7 nodes). So once the model's box QP keeps the free set
-of the current point (the active set is identified), the iteration also tries the true
-Newton step on the free nodes, ``H_FF d_F = -grad_F F`` with ``H`` the energy's Hessian,
-and takes it instead when it descends with positive curvature and passes the line search;
-otherwise the model's step is taken as before, so the energy still falls at every
-iteration.
-
-Where the energy's curvature along the model's step is negative (a damage zone softening
-into a crack within one damage step) that step is also tried twice, four times, ... as long,
-while the energy keeps falling: the convex model alone would creep towards the crack by a
-few percent per iteration.
+That absolute value costs Newton's speed, for two reasons the cohesive law shows. Where
+the damage is small its nodal curvature ``c g'' + s w''`` is negative (``w'' = -2``) while the
+full Hessian, with the gradient term's stiffness, is positive definite on the free nodes:
+the model's steps then shrink by a constant factor per iteration (linear convergence;
+``docs/solvers.md#the-cohesive-damage-step``). And where a damage zone softens into
+a crack within one damage step, the energy's curvature is negative along the way and the
+model creeps towards it by a few percent per iteration. So each iteration first tries the
+Newton step of the true problem for the active set the model's QP predicts (the nodes it
+puts on a bound go there, the others solve the true Hessian's system), and takes it when it
+descends with positive curvature and passes the line search: quadratic convergence once the
+active set is identified. Otherwise it takes the model's step, and, where that full step
+was accepted, tries it twice, four times, ... as long while the energy keeps falling. The
+energy falls at every iteration either way.
 
 Convergence is measured as for the QP: the scaled KKT residual (:func:`thinfilm.solvers.boxqp.kkt_residual`)
 of the model at the current point, whose residual ``A a - b`` is ``grad F(a)`` and whose
@@ -131,12 +129,10 @@ def solve_box_newton(energy, lower, upper=1.0, a0=None, *, rtol=1e-8, max_iter=5
         gradient = A @ a - b                      # the energy's, by the model's construction
         rounding = _rounding(F, gradient, a)
         trial = None
-        free = (a > lower) & (a < upper)
-        if free.any() and np.array_equal(free, (qp.a > lower) & (qp.a < upper)):
-            d = _free_newton_step(energy, a, gradient, free)
-            if d is not None:
-                trial, F_trial = _line_search(energy, a, F, d, float(gradient @ d), rounding, lower, upper,
-                                              armijo, max_halvings)
+        d = _newton_step(energy, a, gradient, qp.a, lower, upper)
+        if d is not None:
+            trial, F_trial = _line_search(energy, a, F, d, float(gradient @ d), rounding, lower, upper, armijo,
+                                          max_halvings)
         if trial is None:
             d = qp.a - a
             slope = float(gradient @ d)               # <= -d.A.d < 0
@@ -180,8 +176,7 @@ def _expand(energy, a, d, trial, F_trial, lower, upper, max_doublings):
     """From a full model step ``trial = a + d`` (clipped), the steps ``a + s d`` (clipped)
     for ``s`` = 2, 4, ... while each lowers ``F`` below the one before: where the energy's
     curvature along ``d`` is negative the convex model's step is too short by a growing
-    factor (a damage zone softening into a crack: measured, 1.07 per iteration and hundreds
-    of iterations from alpha = 0.14 to the crack), and doubling reaches the bound or the
+    factor (a damage zone softening into a crack), and doubling reaches the bound or the
     minimizer along ``d`` in a few energy evaluations."""
     if not np.array_equal(trial, np.clip(a + d, lower, upper)):
         return trial, F_trial          # the line search halved: the model's step was too long already
@@ -198,25 +193,29 @@ def _expand(energy, a, d, trial, F_trial, lower, upper, max_doublings):
     return trial, F_trial
 
 
-def _free_newton_step(energy, a, gradient, free):
-    """The Newton step on the free nodes, ``H_FF d_F = -gradient_F`` (0 elsewhere), or None
-    when it does not descend with positive curvature (``H_FF`` indefinite along it) or
-    cannot be factorized. Sparse LU (SuperLU) with partial pivoting: ``H_FF`` need not be
-    definite."""
+def _newton_step(energy, a, gradient, x, lower, upper):
+    """The Newton step for the active set of the model's minimizer ``x``: the nodes ``x``
+    puts on a bound go there (``d_A = x_A - a_A``), the others solve
+    ``H_FF d_F = -gradient_F - H_FA d_A`` with ``H`` the energy's Hessian (a semismooth Newton
+    step of the true problem, the active set predicted by the convex model). None when no
+    node is free, when ``d`` does not descend with positive curvature (``H`` indefinite
+    along it) or when ``H_FF`` cannot be factorized. Sparse LU (SuperLU) with partial
+    pivoting: ``H_FF`` need not be definite."""
     import scipy.sparse.linalg as spla
 
+    free = (x > lower) & (x < upper)
+    if not free.any():
+        return None
     index = np.flatnonzero(free)
-    H = energy.hessian(a).tocsr()[index][:, index].tocsc()
-    g = gradient[index]
+    d = np.where(free, 0.0, x - a)
+    H = energy.hessian(a).tocsr()
     try:
-        d_free = spla.splu(H).solve(-g)
+        d[index] = spla.splu(H[index][:, index].tocsc()).solve(-gradient[index] - (H @ d)[index])
     except RuntimeError:       # singular
         return None
-    if not np.all(np.isfinite(d_free)):
+    if not np.all(np.isfinite(d)):
         return None
-    slope, curvature = float(g @ d_free), float(d_free @ (H @ d_free))
+    slope, curvature = float(gradient @ d), float(d @ (H @ d))
     if not (slope < 0.0 and curvature > 0.0):
         return None
-    d = np.zeros_like(a)
-    d[index] = d_free
     return d
