@@ -82,7 +82,7 @@ class BoxNewtonResult:
         return float(self.kkt_residuals[-1])
 
 
-def solve_box_newton(energy, lower, upper=1.0, a0=None, *, rtol=1e-8, max_iter=50, armijo=1e-4,
+def solve_box_newton(energy, lower, upper=1.0, a0=None, *, rtol=1e-8, max_iter=100, armijo=1e-4,
                      max_halvings=30) -> BoxNewtonResult:
     """Minimize ``energy`` over ``lower <= a <= upper`` (module docstring).
 
@@ -133,6 +133,8 @@ def solve_box_newton(energy, lower, upper=1.0, a0=None, *, rtol=1e-8, max_iter=5
         if d is not None:
             trial, F_trial = _line_search(energy, a, F, d, float(gradient @ d), rounding, lower, upper, armijo,
                                           max_halvings)
+            if trial is not None:
+                trial, F_trial = _expand(energy, a, d, trial, F_trial, lower, upper, max_halvings)
         if trial is None:
             d = qp.a - a
             slope = float(gradient @ d)               # <= -d.A.d < 0
@@ -216,6 +218,11 @@ def _newton_step(energy, a, gradient, x, lower, upper):
     if not np.all(np.isfinite(d)):
         return None
     slope, curvature = float(gradient @ d), float(d @ (H @ d))
-    if not (slope < 0.0 and curvature > 0.0):
+    if curvature < 0.0:
+        # H is indefinite along d: the energy falls along -sign(slope) d at least as a
+        # concave parabola does (a saddle the damage leaves; the convex model's steps would
+        # creep away from it)
+        return -d if slope > 0.0 else d
+    if not slope < 0.0:
         return None
     return d
