@@ -26,9 +26,10 @@ model creeps towards it by a few percent per iteration. So each iteration first 
 Newton step of the true problem for the active set the model's QP predicts (the nodes it
 puts on a bound go there, the others solve the true Hessian's system), and takes it when it
 descends with positive curvature and passes the line search: quadratic convergence once the
-active set is identified. Otherwise it takes the model's step, and, where that full step
-was accepted, tries it twice, four times, ... as long while the energy keeps falling. The
-energy falls at every iteration either way.
+active set is identified. Where the Hessian's curvature along that step is negative (a
+saddle the damage leaves) its descending sign is taken. Otherwise it takes the model's
+step. A full step that passes the line search is tried twice, four times, ... as long
+while the energy keeps falling. The energy falls at every iteration either way.
 
 Convergence is measured as for the QP: the scaled KKT residual (:func:`thinfilm.solvers.boxqp.kkt_residual`)
 of the model at the current point, whose residual ``A a - b`` is ``grad F(a)`` and whose
@@ -199,9 +200,10 @@ def _newton_step(energy, a, gradient, x, lower, upper):
     """The Newton step for the active set of the model's minimizer ``x``: the nodes ``x``
     puts on a bound go there (``d_A = x_A - a_A``), the others solve
     ``H_FF d_F = -gradient_F - H_FA d_A`` with ``H`` the energy's Hessian (a semismooth Newton
-    step of the true problem, the active set predicted by the convex model). None when no
-    node is free, when ``d`` does not descend with positive curvature (``H`` indefinite
-    along it) or when ``H_FF`` cannot be factorized. Sparse LU (SuperLU) with partial
+    step of the true problem, the active set predicted by the convex model); where ``H``'s
+    curvature along ``d`` is negative, ``d`` or ``-d``, whichever descends. None when no node
+    is free, when ``d`` with positive curvature does not descend, or when ``H_FF`` cannot be
+    factorized. Sparse LU (SuperLU) with partial
     pivoting: ``H_FF`` need not be definite."""
     import scipy.sparse.linalg as spla
 
