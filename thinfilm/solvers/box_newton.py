@@ -135,7 +135,7 @@ def solve_box_newton(energy, lower, upper=1.0, a0=None, *, rtol=1e-8, max_iter=1
             trial, F_trial = _line_search(energy, a, F, d, float(gradient @ d), rounding, lower, upper, armijo,
                                           max_halvings)
             if trial is not None:
-                trial, F_trial = _expand(energy, a, d, trial, F_trial, lower, upper, max_halvings)
+                trial, F_trial = _expand(energy, a, d, trial, F_trial, rounding, lower, upper, max_halvings)
         if trial is None:
             d = qp.a - a
             slope = float(gradient @ d)               # <= -d.A.d < 0
@@ -144,7 +144,7 @@ def solve_box_newton(energy, lower, upper=1.0, a0=None, *, rtol=1e-8, max_iter=1
             trial, F_trial = _line_search(energy, a, F, d, slope, rounding, lower, upper, armijo, max_halvings)
             if trial is None:
                 break
-            trial, F_trial = _expand(energy, a, d, trial, F_trial, lower, upper, max_halvings)
+            trial, F_trial = _expand(energy, a, d, trial, F_trial, rounding, lower, upper, max_halvings)
         a, F = trial, F_trial
         A, b = energy.convex_model(a)
         kkts.append(kkt_residual(A, b, a, lower, upper))
@@ -175,9 +175,9 @@ def _line_search(energy, a, F, d, slope, rounding, lower, upper, armijo, max_hal
     return None, None
 
 
-def _expand(energy, a, d, trial, F_trial, lower, upper, max_doublings):
-    """From a full model step ``trial = a + d`` (clipped), the steps ``a + s d`` (clipped)
-    for ``s`` = 2, 4, ... while each lowers ``F`` below the one before: where the energy's
+def _expand(energy, a, d, trial, F_trial, rounding, lower, upper, max_doublings):
+    """From a full step ``trial = a + d`` (clipped), the steps ``a + s d`` (clipped) for
+    ``s`` = 2, 4, ... while each lowers ``F`` below the one before by more than ``rounding``: where the energy's
     curvature along ``d`` is negative the convex model's step is too short by a growing
     factor (a damage zone softening into a crack), and doubling reaches the bound or the
     minimizer along ``d`` in a few energy evaluations."""
@@ -190,15 +190,16 @@ def _expand(energy, a, d, trial, F_trial, lower, upper, max_doublings):
         if np.array_equal(longer, trial):
             break                      # every node has reached its bound
         F_longer = energy.value(longer)
-        if not F_longer < F_trial:
-            break
+        if not F_longer < F_trial - rounding:
+            break                      # (a fall within F's rounding would let it cycle near a minimizer)
         trial, F_trial = longer, F_longer
     return trial, F_trial
 
 
 def _newton_step(energy, a, gradient, x, lower, upper):
     """The Newton step for the active set of the model's minimizer ``x``: the nodes ``x``
-    puts on a bound go there (``d_A = x_A - a_A``), the others solve
+    puts on a bound go there (``d_A = x_A - a_A``) unless the gradient moves them off it, the
+    others solve
     ``H_FF d_F = -gradient_F - H_FA d_A`` with ``H`` the energy's Hessian (a semismooth Newton
     step of the true problem, the active set predicted by the convex model); where ``H``'s
     curvature along ``d`` is negative, ``d`` or ``-d``, whichever descends. None when no node
@@ -207,7 +208,10 @@ def _newton_step(energy, a, gradient, x, lower, upper):
     pivoting: ``H_FF`` need not be definite."""
     import scipy.sparse.linalg as spla
 
-    free = (x > lower) & (x < upper)
+    # and the nodes on a bound that the energy's gradient at ``a`` pushes into the box: the
+    # convex model may hold them there while the true problem would move them, and the
+    # iteration would then stall at their KKT residual
+    free = (x > lower) & (x < upper) | (a <= lower) & (gradient < 0.0) & (lower < upper) | (a >= upper) & (gradient > 0.0)
     if not free.any():
         return None
     index = np.flatnonzero(free)
