@@ -624,6 +624,9 @@ class Engine:
                                   None if s.alpha is None else transfer.alpha(s.alpha), s.elastic, s.surface,
                                   s.u_rescalable)
             alpha_prev = transfer.alpha(alpha_prev)
+            # a deep backtrack raised inside this loop leaves the call before it returns: the
+            # run reads the transferred damage from here (the states are transferred in place)
+            self._alpha_prev = alpha_prev
             lower = alpha_prev if step == 0 else states[step - 1].alpha
             self._u_cache = None   # a solve on the old discretization
             if self.newton_solver is not None:
@@ -694,6 +697,7 @@ class Engine:
         i = len(states)
         restarted = False  # True while step i restarts from a backtrack
         alpha_start, u_start = alpha_prev, None
+        self._alpha_prev = alpha_prev
         if states:
             alpha_start, u_start = states[-1].alpha, self._warm_start(states[-1], t_values, i)
             last = states[-1]
@@ -730,6 +734,7 @@ class Engine:
                     raise EvolutionError(f"step {i} (t = {t:g}): more than {self.backtrack.limit}"
                                          " backtracks; raise solver.backtrack_limit or backtrack_delta") from None
                 k = back.k
+                alpha_prev = self._alpha_prev   # on the current discretization
                 backtracks_into[k] = backtracks_into.get(k, 0) + 1
                 progress(k - i)
                 del states[k:], records[k:]
