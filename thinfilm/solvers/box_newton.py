@@ -45,6 +45,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse.linalg as spla
 
 from thinfilm.solvers.boxqp import kkt_residual, solve_box_qp
 from thinfilm.solvers.errors import SolverError
@@ -177,10 +178,10 @@ def _line_search(energy, a, F, d, slope, rounding, lower, upper, armijo, max_hal
 
 def _expand(energy, a, d, trial, F_trial, rounding, lower, upper, max_doublings):
     """From a full step ``trial = a + d`` (clipped), the steps ``a + s d`` (clipped) for
-    ``s`` = 2, 4, ... while each lowers ``F`` below the one before by more than ``rounding``: where the energy's
-    curvature along ``d`` is negative the convex model's step is too short by a growing
-    factor (a damage zone softening into a crack), and doubling reaches the bound or the
-    minimizer along ``d`` in a few energy evaluations."""
+    ``s`` = 2, 4, ... while each lowers ``F`` below the one before by more than ``rounding``:
+    where the energy's curvature along ``d`` is negative the convex model's step is too short
+    by a growing factor (a damage zone softening into a crack), and doubling reaches the bound
+    or the minimizer along ``d`` in a few energy evaluations."""
     if not np.array_equal(trial, np.clip(a + d, lower, upper)):
         return trial, F_trial          # the line search halved: the model's step was too long already
     step = 1.0
@@ -199,19 +200,17 @@ def _expand(energy, a, d, trial, F_trial, rounding, lower, upper, max_doublings)
 def _newton_step(energy, a, gradient, x, lower, upper):
     """The Newton step for the active set of the model's minimizer ``x``: the nodes ``x``
     puts on a bound go there (``d_A = x_A - a_A``) unless the gradient moves them off it, the
-    others solve
-    ``H_FF d_F = -gradient_F - H_FA d_A`` with ``H`` the energy's Hessian (a semismooth Newton
-    step of the true problem, the active set predicted by the convex model); where ``H``'s
-    curvature along ``d`` is negative, ``d`` or ``-d``, whichever descends. None when no node
-    is free, when ``d`` with positive curvature does not descend, or when ``H_FF`` cannot be
-    factorized. Sparse LU (SuperLU) with partial
-    pivoting: ``H_FF`` need not be definite."""
-    import scipy.sparse.linalg as spla
-
-    # and the nodes on a bound that the energy's gradient at ``a`` pushes into the box: the
-    # convex model may hold them there while the true problem would move them, and the
-    # iteration would then stall at their KKT residual
-    free = (x > lower) & (x < upper) | (a <= lower) & (gradient < 0.0) & (lower < upper) | (a >= upper) & (gradient > 0.0)
+    others solve ``H_FF d_F = -gradient_F - H_FA d_A`` with ``H`` the energy's Hessian (a
+    semismooth Newton step of the true problem, the active set predicted by the convex
+    model); where ``H``'s curvature along ``d`` is negative, ``d`` or ``-d``, whichever
+    descends. None when no node is free, when ``d`` with positive curvature does not descend,
+    or when ``H_FF`` cannot be factorized. Sparse LU (SuperLU) with partial pivoting: ``H_FF``
+    need not be definite."""
+    # Free: the nodes inside the box at x, and the nodes on a bound that the energy's gradient
+    # at a pushes into the box (the convex model may hold them there while the true problem
+    # would move them, and the iteration would then stall at their KKT residual).
+    pushed_off = (a <= lower) & (gradient < 0.0) & (lower < upper) | (a >= upper) & (gradient > 0.0)
+    free = (x > lower) & (x < upper) | pushed_off
     if not free.any():
         return None
     index = np.flatnonzero(free)
