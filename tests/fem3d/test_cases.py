@@ -248,15 +248,18 @@ def test_lpanel_adaptive_against_its_banded_twin(tmp_path):
 def test_lpanel_adaptive_with_deep_backtracking(tmp_path):
     """Alg. 3.2 (bi = 1) on the adaptive coarse panel: a deep backtrack raised while a step
     re-solves on its refined mesh restarts an earlier step on that mesh (the damage before
-    the first step carried with it). Measured: the crack jumps at 0.255 mm, as without
-    backtracking, and the backtracks find it at 0.23 mm, where Alg. 3.1 finds it."""
+    the first step carried with it), and an earlier state's energies from a coarser mesh are
+    made current before the test compares with them (a refined mesh is more compliant: with
+    the stale energies every later state seemed to beat them). Measured: the crack jumps at
+    0.255 mm, as without backtracking, and the backtracks find it at 0.23 mm, where Alg. 3.1
+    finds it; 5 backtracks (60 with the stale energies)."""
     overrides = dict(COARSE_LPANEL, **{"mesh.adapt": True, "solver.backtrack": "deep", "solver.backtrack_interval": 1,
                                        "load.t": COARSE_LPANEL["load.t"][:17], "output.snapshots": [0.2]})
     summary = json.loads(run(load_case("lpanel", overrides), tmp_path)["summary"].read_text())
     assert summary["events"][0]["t"] == 0.23
     with Results(tmp_path / "results.h5") as res:
         assert res.t[-1] == 0.26
-        assert res.steps["backtracks"].sum() > 0 and res.steps["mesh"][-1] > res.steps["mesh"][0]
+        assert 0 < res.steps["backtracks"].sum() <= 10 and res.steps["mesh"][-1] > res.steps["mesh"][0]
 
 
 @pytest.mark.slow   # 15-20 s; the default suite keeps 3D refinement and 3D files (test_refine, test_adaptive_results)

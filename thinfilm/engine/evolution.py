@@ -292,7 +292,7 @@ class Engine:
             elastic, surface = self.model.energies(u, alpha_star, t)
             record.energy_history.append(elastic + surface)
             if deep and iteration % self.backtrack.interval == 0:
-                self._deep_check(step, t, u, alpha_star, elastic, surface, history)
+                self._deep_check(step, t, u, alpha_star, elastic, surface, history, record)
             settled.append(elastic + surface)
             if change > self.newton.switch:
                 switch = self.newton.switch
@@ -481,7 +481,22 @@ class Engine:
         # with B = X = 0 (a proportional load) this is (3.17)'s (t_k/t)^2 P + S, to the bit
         return k_state.total - (B + s * X + s ** 2 * P + surface) >= self.backtrack.delta
 
-    def _deep_check(self, step, t, u, alpha, elastic, surface, history):
+    def _beats_fresh(self, k_state, t, moved, surface, record):
+        """:meth:`_beats`, with a stale state's energies (:attr:`State.stale`) made current
+        first, in place, if the stale ones say it is beaten: its ``u`` solved again on the
+        current discretization (one u-solve; the u-solve cache is left as it was)."""
+        if not self._beats(k_state, t, moved, surface):
+            return False
+        if not k_state.stale:
+            return True
+        cache = self._u_cache
+        k_state.u = self._solve_u(k_state.alpha, k_state.t, k_state.u, self.altmin.u_rtol_min, record)
+        k_state.elastic, k_state.surface = self.model.energies(k_state.u, k_state.alpha, k_state.t)
+        k_state.stale = False
+        self._u_cache = cache
+        return self._beats(k_state, t, moved, surface)
+
+    def _deep_check(self, step, t, u, alpha, elastic, surface, history, record):
         n_prev = len(history)
         scope = self.backtrack.scope or n_prev
         ks = range(max(n_prev - scope, 0), n_prev)
@@ -491,7 +506,7 @@ class Engine:
         for k in ks:
             if history[k].t > 0:
                 moved = moved or self._moved(u, alpha, t, elastic)
-                if self._beats(history[k], t, moved, surface):
+                if self._beats_fresh(history[k], t, moved, surface, record):
                     raise _Backtrack(k, alpha.copy(), u.copy(), t)
 
     def _search(self, state, lower, record, step):
@@ -622,7 +637,7 @@ class Engine:
             for k, s in enumerate(states):
                 states[k] = State(s.t, None if s.u is None else transfer.u(s.u),
                                   None if s.alpha is None else transfer.alpha(s.alpha), s.elastic, s.surface,
-                                  s.u_rescalable)
+                                  s.u_rescalable, stale=True)
             alpha_prev = transfer.alpha(alpha_prev)
             # a deep backtrack raised inside this loop leaves the call before it returns: the
             # run reads the transferred damage from here (the states are transferred in place)
@@ -725,7 +740,7 @@ class Engine:
                     for k in range(i):
                         if states[k].t > 0:
                             moved = moved or self._moved(state.u, state.alpha, t, state.elastic)
-                            if self._beats(states[k], t, moved, state.surface):
+                            if self._beats_fresh(states[k], t, moved, state.surface, record):
                                 raise _Backtrack(k, state.alpha.copy(), state.u.copy(), t)
             except _Backtrack as back:
                 total_backtracks += 1

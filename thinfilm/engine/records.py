@@ -129,6 +129,10 @@ class State:
 
     ``u_rescalable``: a resumed run's last state whose step recorded
     :attr:`StepRecord.u_rescalable` (the engine's own states do not use it).
+    ``stale``: the state was carried to a refined discretization and its energies are the
+    coarser one's; the backtracking test solves ``u`` again before comparing with them (a
+    refined mesh is more compliant, and a stale energy would make any later state seem to
+    beat it).
     """
 
     t: float
@@ -137,6 +141,7 @@ class State:
     elastic: float
     surface: float
     u_rescalable: bool = False
+    stale: bool = False
 
     @property
     def total(self):

@@ -472,8 +472,11 @@ class ResultsWriter:
             last = k == n - 1
             alpha = read("alpha", k) if (all_alpha or last) else None
             u = read("u", k) if last else None
+            # energies from a coarser version than the run's current mesh are stale
+            # (State.stale), as the uninterrupted run holds them
+            stale = refinement is not None and int(refinement.pass_nodes[versions[k]]) < int(refinement.pass_nodes[-1])
             states.append(State(float(t[k]), u, alpha, float(elastic[k]), float(surface[k]),
-                                u_rescalable=bool(last and rescalable[k])))
+                                u_rescalable=bool(last and rescalable[k]), stale=stale))
         return states
 
     def stored_refinement(self):
