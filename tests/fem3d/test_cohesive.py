@@ -110,6 +110,26 @@ def test_newton_converges_quadratically_where_the_damage_is_small():
     assert r[-1] <= 1e-10 and r[-2] <= 10.0 * r[-3] ** 2 / r[0]
 
 
+def test_newton_forms_a_crack_within_one_damage_solve():
+    # a narrow zone driven to 10 times the onset density with a1 = 0.28 (ft = 15): from
+    # alpha = 0 the damage must soften into a crack (alpha > 0.99) inside one solve, through
+    # negative curvature; the Newton step for the QP's active set, its negative-curvature
+    # sign and step doubling do it in 5 iterations (the convex model's steps alone: 23),
+    # to an energy no higher than L-BFGS-B's
+    length = 4.0
+    mesh = strip_mesh(round(length / (ETA / 5)), 2, length=length, height=0.08)
+    ft = 15.0
+    op = P1Damage(mesh, GC, ETA, law=CohesiveLaw(E, GC, ft, ETA, "linear"))
+    x = mesh.points[:, 0]
+    e = 2.0 * 10.0 * ft ** 2 / (2.0 * E) * op.omega * np.exp(-((x - length / 2) / (0.3 * ETA)) ** 2)
+    F = op.energy(e)
+    result = solve_box_newton(F, np.zeros(F.n), 1.0, rtol=1e-9)
+    assert result.a.max() > 0.99 and result.iterations <= 8
+    reference = so.minimize(F.value, np.zeros(F.n), jac=F.gradient, bounds=[(0.0, 1.0)] * F.n, method="L-BFGS-B",
+                            options=dict(ftol=1e-15, gtol=1e-12, maxiter=20000))
+    assert result.energies[-1] <= reference.fun + 1e-12
+
+
 def test_the_quadratic_laws_keep_their_qp():
     # AT1's damage energy through the general interface is the QP's, and Newton solves it in
     # one QP to the same point
