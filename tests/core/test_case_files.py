@@ -54,14 +54,15 @@ def test_fine_branching_scene_changes_only_the_grid_and_the_film(name):
     assert dataclasses.replace(built, text=fine.text, source=fine.source, overrides=None) == fine
 
 
-@pytest.mark.parametrize("name, changed_model, changed_load", [
-    ("lpanel", {"law", "at", "ft", "softening", "eps"}, True),
-    ("three_point_bending_II", {"law", "at", "ft", "softening"}, True),
-    ("nooru_mohamed_4b", {"law", "at", "ft", "softening", "split", "eps"}, True),
+@pytest.mark.parametrize("name, changed_model", [
+    ("lpanel", {"law", "at", "ft", "softening", "eps"}),
+    ("three_point_bending_II", {"law", "at", "ft", "softening"}),
+    ("nooru_mohamed_4b", {"law", "at", "ft", "softening", "split", "eps"}),
 ])
-def test_a_cohesive_case_is_its_experiment_with_the_cohesive_law(name, changed_model, changed_load):
+def test_a_cohesive_case_is_its_experiment_with_the_cohesive_law(name, changed_model):
     # cases/<name>_czm.toml: the same specimen, material and loads as the AT1 case, with the
-    # cohesive law; what else differs (eps, the split, the load steps) its comment says
+    # cohesive law; what else differs (eps, the split, the load steps: every one takes its
+    # own, to pass the cohesive peak) its comment says
     at1 = load_scene(CASES / f"{name}.toml")
     czm = load_scene(CASES / f"{name}_czm.toml")
     assert czm.model.law == "czm" and at1.model.law == "at1"
@@ -72,4 +73,4 @@ def test_a_cohesive_case_is_its_experiment_with_the_cohesive_law(name, changed_m
     for key in ("fixed", "displacement", "traction", "force", "constant_displacement", "constant_traction",
                 "constant_force"):
         assert getattr(czm.load, key) == getattr(at1.load, key), key
-    assert (czm.load == at1.load) != changed_load      # the load steps: the same, or changed as said
+    assert czm.load != at1.load      # the load steps

@@ -489,11 +489,8 @@ class Engine:
             return False
         if not k_state.stale:
             return True
-        cache = self._u_cache
-        k_state.u = self._solve_u(k_state.alpha, k_state.t, k_state.u, self.altmin.u_rtol_min, record)
-        k_state.elastic, k_state.surface = self.model.energies(k_state.u, k_state.alpha, k_state.t)
+        k_state.u, k_state.elastic, k_state.surface = self._on_this_mesh(k_state, record)
         k_state.stale = False
-        self._u_cache = cache
         return self._beats(k_state, t, moved, surface)
 
     def _deep_check(self, step, t, u, alpha, elastic, surface, history, record):
@@ -604,10 +601,11 @@ class Engine:
         return state
 
     # -- a discretization that refines itself ----------------------------------------------
-    def _refine_and_solve(self, state, t, step, record, states, alpha_prev):
+    def _refine_and_solve(self, state, t, step, record, states):
         """The corrector passes of step ``step`` (:class:`AdaptiveMesh`): while the model
         refines around the converged ``state``, carry the earlier steps' states (in place in
-        ``states``), the damage before the first step and the state to the new
+        ``states``), the damage before the first step (``self._alpha_prev``, in place: a deep
+        backtrack raised by a pass leaves this call) and the state to the new
         discretization, and solve the step again from the transferred state, with its
         search and stability check. The transfer is exact for nested P1 fields, so the
         transferred state starts where the coarse one ended: the front that crossed coarse
@@ -622,27 +620,22 @@ class Engine:
 
         Returns
         -------
-        state : State
+        State
             The step's state on the final discretization.
-        alpha_prev : ndarray
-            The damage before the first step, transferred.
         """
         while True:
             transfer = self._adaptive.refine(state.u, state.alpha, t)
             if transfer is None:
                 if record.refinements and step > 0:
                     self._previous_on_this_mesh(states[step - 1], record)
-                return state, alpha_prev
+                return state
             record.refinements += 1
             for k, s in enumerate(states):
                 states[k] = State(s.t, None if s.u is None else transfer.u(s.u),
                                   None if s.alpha is None else transfer.alpha(s.alpha), s.elastic, s.surface,
                                   s.u_rescalable, stale=True)
-            alpha_prev = transfer.alpha(alpha_prev)
-            # a deep backtrack raised inside this loop leaves the call before it returns: the
-            # run reads the transferred damage from here (the states are transferred in place)
-            self._alpha_prev = alpha_prev
-            lower = alpha_prev if step == 0 else states[step - 1].alpha
+            self._alpha_prev = transfer.alpha(self._alpha_prev)
+            lower = self._alpha_prev if step == 0 else states[step - 1].alpha
             self._u_cache = None   # a solve on the old discretization
             if self.newton_solver is not None:
                 self.newton_solver = IndefiniteSolver()
@@ -650,14 +643,19 @@ class Engine:
                                                 step, history=states[:step])
             state = self._search_and_check(state, t, lower, record, step)
 
+    def _on_this_mesh(self, state, record):
+        """``(u, elastic, surface)`` of ``state``'s damage at its load, ``u`` solved on the
+        current discretization (one u-solve); the u-solve cache (what the next step may
+        rescale) is left as it was."""
+        cache = self._u_cache
+        u = self._solve_u(state.alpha, state.t, state.u, self.altmin.u_rtol_min, record)
+        self._u_cache = cache
+        return (u, *self.model.energies(u, state.alpha, state.t))
+
     def _previous_on_this_mesh(self, previous, record):
         """Record the energies of the ``previous`` step's damage at its load, ``u`` solved on
-        the current discretization; the u-solve cache (what the next step may rescale) is
-        left as it was."""
-        cache = self._u_cache
-        u = self._solve_u(previous.alpha, previous.t, previous.u, self.altmin.u_rtol_min, record)
-        record.elastic_previous, record.surface_previous = self.model.energies(u, previous.alpha, previous.t)
-        self._u_cache = cache
+        the current discretization."""
+        _, record.elastic_previous, record.surface_previous = self._on_this_mesh(previous, record)
 
     # -- the evolution --------------------------------------------------------------------
     @staticmethod
@@ -704,15 +702,15 @@ class Engine:
         """
         t_values = np.asarray(t_values, dtype=float)
         n_alpha = self.model.n_alpha
-        alpha_prev = np.zeros(n_alpha) if alpha_initial is None else np.asarray(alpha_initial, float).copy()
+        # the damage before the first step, on the current discretization
+        self._alpha_prev = np.zeros(n_alpha) if alpha_initial is None else np.asarray(alpha_initial, float).copy()
         states: list[State] = list(history)
         records: list[StepRecord] = [StepRecord(k, s.t, s.elastic, s.surface, s.total) for k, s in enumerate(states)]
         backtracks_into: dict[int, int] = {}  # step -> backtracks that restarted it
         total_backtracks = 0
         i = len(states)
         restarted = False  # True while step i restarts from a backtrack
-        alpha_start, u_start = alpha_prev, None
-        self._alpha_prev = alpha_prev
+        alpha_start, u_start = self._alpha_prev, None
         if states:
             alpha_start, u_start = states[-1].alpha, self._warm_start(states[-1], t_values, i)
             last = states[-1]
@@ -720,7 +718,7 @@ class Engine:
                 self._u_cache = (last.u, np.array(last.alpha, dtype=float), last.t)
         while i < len(t_values):
             t = float(t_values[i])
-            lower = alpha_prev if i == 0 else states[i - 1].alpha
+            lower = self._alpha_prev if i == 0 else states[i - 1].alpha
             record = StepRecord(i, t, backtracks=backtracks_into.get(i, 0))
             started = time.perf_counter()
             work_before = WORK.snapshot()
@@ -733,8 +731,8 @@ class Engine:
                                                     history=states[:i])
                 state = self._search_and_check(state, t, lower, record, i)
                 if self._adaptive is not None:
-                    state, alpha_prev = self._refine_and_solve(state, t, i, record, states, alpha_prev)
-                    lower = alpha_prev if i == 0 else states[i - 1].alpha
+                    state = self._refine_and_solve(state, t, i, record, states)
+                    lower = self._alpha_prev if i == 0 else states[i - 1].alpha
                 if self.backtrack.kind != "none":
                     moved = None
                     for k in range(i):
@@ -749,7 +747,6 @@ class Engine:
                     raise EvolutionError(f"step {i} (t = {t:g}): more than {self.backtrack.limit}"
                                          " backtracks; raise solver.backtrack_limit or backtrack_delta") from None
                 k = back.k
-                alpha_prev = self._alpha_prev   # on the current discretization
                 backtracks_into[k] = backtracks_into.get(k, 0) + 1
                 progress(k - i)
                 del states[k:], records[k:]

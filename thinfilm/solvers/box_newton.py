@@ -209,7 +209,7 @@ def _newton_step(energy, a, gradient, x, lower, upper):
     # Free: the nodes inside the box at x, and the nodes on a bound that the energy's gradient
     # at a pushes into the box (the convex model may hold them there while the true problem
     # would move them, and the iteration would then stall at their KKT residual).
-    pushed_off = (a <= lower) & (gradient < 0.0) & (lower < upper) | (a >= upper) & (gradient > 0.0)
+    pushed_off = (lower < upper) & ((a <= lower) & (gradient < 0.0) | (a >= upper) & (gradient > 0.0))
     free = (x > lower) & (x < upper) | pushed_off
     if not free.any():
         return None
