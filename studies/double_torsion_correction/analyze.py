@@ -31,6 +31,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import tomllib
 from pathlib import Path
 
 import matplotlib
@@ -48,38 +49,57 @@ L, A0, NU, E, GC = 1.0, 0.1, 0.22, 1.0, 1.0
 
 
 def curves(scan):
-    """One dict per finished run: its geometry and the arrays a, G, P, psi_sim, psi_1."""
-    out = []
-    for run in sorted((Path(scan) / "runs").iterdir()):
-        if not (run / "summary.json").exists() or not (run / "run.json").exists():
-            continue
-        o = json.loads((run / "run.json").read_text())["overrides"]
-        W, T, Wm = o["geometry.width"], o["geometry.thickness"], o["geometry.support"]
-        with Results(run / "results.h5") as res:
-            t = np.asarray(res.t)
-            G, a = energy_release_rate(t, res.steps["elastic"], res.steps["surface"], GC, T, a0=A0,
-                                       da_min=float(res.parameters["h"]))
-            P = np.asarray(res.steps["force"])
-            a_bottom, a_mid = fronts(res, T, float(res.parameters["h"]))
-        G42 = torsion_theory.release_rate(P, E, NU, W, T, Wm)
-        # growth: G defined, the crack past its notch, the bottom front not yet at the far end
-        # (the plate then hangs on its uncracked top layer alone)
-        grew = np.isfinite(G) & (a > A0 + 0.02 * L) & (a_bottom < 0.95 * L)
-        out.append({"L/W": round(L / W), "W/T": round(W / T), "W": W, "T": T, "a": a[grew], "G": G[grew],
-                    "P": P[grew], "a_bottom": a_bottom[grew], "a_mid": a_mid[grew], "psi_sim": G42[grew] / G[grew], "psi_1": G42[grew] / GC,
-                    "fuller_2T/W": torsion_theory.psi(W, T, "2T/W"), "fuller_T/W": torsion_theory.psi(W, T, "T/W")})
-    return out
+    """One dict per finished run of the scan (:func:`curve`)."""
+    return [curve(run) for run in sorted((Path(scan) / "runs").iterdir())
+            if (run / "summary.json").exists() and (run / "results.h5").exists()]
+
+
+def geometry(res):
+    """The plate's width W, thickness T and support offset Wm, from the scene stored in the
+    results file with its ``--set`` overrides (a scan's run or a run of its own)."""
+    scene = tomllib.loads(res.attrs["scene"])
+    overrides = json.loads(res.attrs.get("scene_overrides", "{}") or "{}")
+    g = dict(scene["geometry"])
+    g.update({k.split(".", 1)[1]: v for k, v in overrides.items() if k.startswith("geometry.")})
+    return float(g["width"]), float(g["thickness"]), float(g["support"])
+
+
+def curve(run):
+    """A run's geometry and the arrays a, G, P, psi_sim, psi_1 at its steps of growth. On a
+    refined mesh G is differenced across a refinement from the previous step's energies on the
+    step's own mesh (docs/adaptivity.md#the-energy-release-rate) and the fronts are read on
+    each step's mesh."""
+    with Results(Path(run) / "results.h5") as res:
+        W, T, Wm = geometry(res)
+        h = float(res.parameters["h"])
+        t = np.asarray(res.t)
+        nan = np.full(t.size, np.nan)
+        G, a = energy_release_rate(t, res.steps["elastic"], res.steps["surface"], GC, T, a0=A0, da_min=h,
+                                   meshes=res.steps.get("mesh"),
+                                   previous=(res.steps.get("elastic_previous", nan),
+                                             res.steps.get("surface_previous", nan)))
+        P = np.asarray(res.steps["force"])
+        a_bottom, a_mid = fronts(res, T, h)
+    G42 = torsion_theory.release_rate(P, E, NU, W, T, Wm)
+    # growth: G defined, the crack past its notch, the bottom front not yet at the far end
+    # (the plate then hangs on its uncracked top layer alone)
+    grew = np.isfinite(G) & (a > A0 + 0.02 * L) & (a_bottom < 0.95 * L)
+    return {"L/W": round(L / W), "W/T": round(W / T), "W": W, "T": T, "a": a[grew], "G": G[grew],
+            "P": P[grew], "a_bottom": a_bottom[grew], "a_mid": a_mid[grew], "psi_sim": G42[grew] / G[grew],
+            "psi_1": G42[grew] / GC, "fuller_2T/W": torsion_theory.psi(W, T, "2T/W"),
+            "fuller_T/W": torsion_theory.psi(W, T, "T/W")}
 
 
 def fronts(res, T, h):
     """The front's x on the bottom face and at mid-thickness at every step, shape (n,) each:
-    the largest x of a crack-plane node (``|y| < h/2``) with ``alpha >= 0.9``, a0 when none."""
-    points = res.discretization.points
-    plane = np.abs(points[:, 1]) < 0.5 * h
-    bottom = plane & (points[:, 2] < 0.25 * h)
-    mid = plane & (np.abs(points[:, 2] - 0.5 * T) < 0.5 * h)
+    the largest x of a crack-plane node (``|y| < h/2``) with ``alpha >= 0.9``, a0 when none
+    (on each step's own mesh)."""
     out = np.full((2, res.n), A0)
     for k in range(res.n):
+        points = res.discretization_at(k).points
+        plane = np.abs(points[:, 1]) < 0.5 * h
+        bottom = plane & (points[:, 2] < 0.25 * h)
+        mid = plane & (np.abs(points[:, 2] - 0.5 * T) < 0.5 * h)
         cracked = res.nodal("alpha", k) >= 0.9
         for row, where in enumerate((bottom, mid)):
             hit = where & cracked
@@ -107,12 +127,65 @@ def collapse(group):
     return float(np.max((v.max(axis=0) - v.min(axis=0)) / v.mean(axis=0))), float(covered.mean())
 
 
+def step_table(run):
+    """A markdown table of one run's steps of growth: a, the fronts, the surface energy's
+    over-count of the area the bottom front swept, G / Gc and psi_sim."""
+    c = curve(run)
+    lines = [f"{run}: L/W = {c['L/W']}, W/T = {c['W/T']}", "",
+             "| a / L | bottom front / L | mid front / L | (a - a0) / (bottom front - a0) | G / Gc | psi_sim |",
+             "|---|---|---|---|---|---|"]
+    for k in range(c["a"].size):
+        swept = c["a_bottom"][k] - A0
+        over = (c["a"][k] - A0) / swept if swept > 0 else np.nan
+        lines.append(f"| {c['a'][k] / L:.3f} | {c['a_bottom'][k] / L:.3f} | {c['a_mid'][k] / L:.3f} | {over:.2f} |"
+                     f" {c['G'][k] / GC:.3f} | {c['psi_sim'][k]:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
+def runs_figure(found, scan_csv, path):
+    """G/Gc and psi_sim against a/L of single runs, beside the scan's run of the same L/W and
+    W/T (``scan_csv``, the scan's ``psi.csv``, if it has one)."""
+    scan = {}
+    if scan_csv.exists():
+        with open(scan_csv) as f:
+            for row in csv.DictReader(f):
+                scan.setdefault((int(row["L/W"]), int(row["W/T"])), []).append((float(row["a"]), float(row["G"]),
+                                                                                float(row["psi_sim"])))
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    for c in found:
+        label = f"L/W = {c['L/W']}, W/T = {c['W/T']}"
+        rows = np.array(sorted(scan.get((c["L/W"], c["W/T"]), [])))
+        if rows.size:
+            axes[0].plot(rows[:, 0] / L, rows[:, 1] / GC, "s--", ms=3, label=f"{label}, the scan (h = T/4)")
+            axes[1].plot(rows[:, 0] / L, rows[:, 2], "s--", ms=3, label=f"{label}, the scan (h = T/4)")
+        order = np.argsort(c["a"])
+        axes[0].plot(c["a"][order] / L, c["G"][order] / GC, "o-", ms=3, label=f"{label}, this run")
+        axes[1].plot(c["a"][order] / L, c["psi_sim"][order], "o-", ms=3, label=f"{label}, this run")
+    axes[0].axhline(1.0, color="k", lw=0.8)
+    axes[0].set_ylim(0, 1.4)
+    axes[0].set_title("G / Gc from (4.17)", fontsize=9)
+    axes[1].set_title("psi_sim = G_(4.2)(P) / G", fontsize=9)
+    for ax in axes:
+        ax.set_xlabel("a / L, a = S / (Gc T) + a0")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("scan", type=Path)
+    parser.add_argument("scan", type=Path, nargs="?")
+    parser.add_argument("--runs", type=Path, nargs="+", default=[],
+                        help="single runs (finished or not) to tabulate step by step instead, into runs.md")
     parser.add_argument("--out", type=Path, default=HERE / "results")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.runs:
+        text = "\n".join(step_table(run) for run in args.runs)
+        (args.out / "runs.md").write_text(text)
+        runs_figure([curve(run) for run in args.runs], args.out / "psi.csv", args.out / "runs.png")
+        print(text)
+        return
     found = sorted(curves(args.scan), key=lambda c: (c["L/W"], c["W/T"]))
     fig, axes = plt.subplots(3, 2, figsize=(11, 10.5))
     lines = ["| L/W | runs | largest spread of psi_sim over W/T = 9..12, 0.2 <= a/L <= 0.6 | part of the window"
