@@ -131,7 +131,7 @@ def step_table(run):
     """A markdown table of one run's steps of growth: a, the fronts, the surface energy's
     over-count of the area the bottom front swept, G / Gc and psi_sim."""
     c = curve(run)
-    lines = [f"{run}: L/W = {c['L/W']}, W/T = {c['W/T']}", "",
+    lines = [f"{Path(run).name}: L/W = {c['L/W']}, W/T = {c['W/T']}", "",
              "| a / L | bottom front / L | mid front / L | (a - a0) / (bottom front - a0) | G / Gc | psi_sim |",
              "|---|---|---|---|---|---|"]
     for k in range(c["a"].size):
