@@ -81,7 +81,7 @@ def _start(case, mesh, work):
     return process, folder, time.perf_counter()
 
 
-def _time_report(log):
+def time_report(log):
     """``(wall s, peak GB)`` from ``/usr/bin/time -v``'s report in a run's log, or NaNs."""
     text = log.read_text(errors="replace") if log.exists() else ""
     wall = re.search(r"Elapsed \(wall clock\) time.*: (?:(\d+):)?(\d+):([\d.]+)", text)
@@ -144,7 +144,7 @@ def run_cases(cases, out, work, collect, sequential=False):
         timing = {}
         if collect:
             for mesh in ("banded", "adaptive"):
-                timing[mesh] = _time_report(work / f"{case}-{mesh}.log")
+                timing[mesh] = time_report(work / f"{case}-{mesh}.log")
         else:
             meshes = ("banded", "adaptive")
             started = [] if sequential else [_start(case, mesh, work) for mesh in meshes]
@@ -152,7 +152,7 @@ def run_cases(cases, out, work, collect, sequential=False):
                 process, folder, _ = _start(case, mesh, work) if sequential else started[k]
                 if process.wait() != 0:
                     raise RuntimeError(f"{folder.name} failed; see {folder}.log")
-                timing[mesh] = _time_report(work / f"{case}-{mesh}.log")
+                timing[mesh] = time_report(work / f"{case}-{mesh}.log")
         rows = measure(case, work, timing)
         merge_csv(out / "adaptive.csv", rows, FIELDS, "id")
         write_markdown(out)

@@ -2,8 +2,8 @@
 energy release rate and the correction factor psi(a) of the eight non-dimensional
 double-torsion plates of ``cases/scans/double_torsion_correction.toml``.
 
-For each run (its ``results.h5`` and the scan's ``run.json`` alone), at every step where the
-crack grew by at least one mesh size:
+For each run (its ``results.h5`` alone: the scene stored there, with its overrides, gives the
+geometry), at every step where the crack grew by at least one mesh size:
 
 * ``a = S / (Gc T) + a0`` (a0 = 0.1 L) and ``G`` from (4.17) (:mod:`fem3d.release`);
 * the crack front read off the damage: the largest x where ``alpha >= 0.9`` on the crack
@@ -30,8 +30,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
-import tomllib
 from pathlib import Path
 
 import matplotlib
@@ -43,6 +41,7 @@ import numpy as np  # noqa: E402
 from fem3d import torsion_theory  # noqa: E402
 from fem3d.release import energy_release_rate  # noqa: E402
 from thinfilm.results.reader import Results  # noqa: E402
+from thinfilm.resume import scene_keys  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 L, A0, NU, E, GC = 1.0, 0.1, 0.22, 1.0, 1.0
@@ -57,11 +56,8 @@ def curves(scan):
 def geometry(res):
     """The plate's width W, thickness T and support offset Wm, from the scene stored in the
     results file with its ``--set`` overrides (a scan's run or a run of its own)."""
-    scene = tomllib.loads(res.attrs["scene"])
-    overrides = json.loads(res.attrs.get("scene_overrides", "{}") or "{}")
-    g = dict(scene["geometry"])
-    g.update({k.split(".", 1)[1]: v for k, v in overrides.items() if k.startswith("geometry.")})
-    return float(g["width"]), float(g["thickness"]), float(g["support"])
+    keys = scene_keys(res.attrs["scene"], res.attrs.get("scene_overrides"))
+    return float(keys["geometry.width"]), float(keys["geometry.thickness"]), float(keys["geometry.support"])
 
 
 def curve(run):
@@ -127,11 +123,11 @@ def collapse(group):
     return float(np.max((v.max(axis=0) - v.min(axis=0)) / v.mean(axis=0))), float(covered.mean())
 
 
-def step_table(run):
-    """A markdown table of one run's steps of growth: a, the fronts, the surface energy's
-    over-count of the area the bottom front swept, G / Gc and psi_sim."""
-    c = curve(run)
-    lines = [f"{Path(run).name}: L/W = {c['L/W']}, W/T = {c['W/T']}", "",
+def step_table(name, c):
+    """A markdown table of run ``name``'s steps of growth (``c``, its :func:`curve`): a, the
+    fronts, the surface energy's over-count of the area the bottom front swept, G / Gc and
+    psi_sim."""
+    lines = [f"{name}: L/W = {c['L/W']}, W/T = {c['W/T']}", "",
              "| a / L | bottom front / L | mid front / L | (a - a0) / (bottom front - a0) | G / Gc | psi_sim |",
              "|---|---|---|---|---|---|"]
     for k in range(c["a"].size):
@@ -181,9 +177,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.runs:
-        text = "\n".join(step_table(run) for run in args.runs)
+        found = [curve(run) for run in args.runs]
+        text = "\n".join(step_table(run.name, c) for run, c in zip(args.runs, found))
         (args.out / "runs.md").write_text(text)
-        runs_figure([curve(run) for run in args.runs], args.out / "psi.csv", args.out / "runs.png")
+        runs_figure(found, args.out / "psi.csv", args.out / "runs.png")
         print(text)
         return
     found = sorted(curves(args.scan), key=lambda c: (c["L/W"], c["W/T"]))

@@ -13,12 +13,11 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
+
+from studies.runs import run_case
 
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -27,11 +26,8 @@ CORNER = (250.0, 250.0)      # the re-entrant corner (mm)
 
 
 def run(work):
-    env = {**os.environ, "MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     for eps in EPS:
-        subprocess.run([sys.executable, "-m", "thinfilm", "run", "cases/lpanel_czm.toml", "--threads", "1", "--force",
-                        "--set", f"model.eps={eps}", "--set", f"mesh.h_min={eps / 5}", "--out",
-                        str(work / f"eps{eps:g}")], cwd=ROOT, env=env, check=True)
+        run_case("lpanel_czm", [f"model.eps={eps}", f"mesh.h_min={eps / 5}"], work / f"eps{eps:g}")
 
 
 def measured():

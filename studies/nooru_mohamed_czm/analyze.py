@@ -14,14 +14,12 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[2]
+from studies.runs import run_case
+
 RESULTS = Path(__file__).resolve().parent / "results"
 
 #: name -> the run's ``--set`` options (the case file's: eps = 5 mm, h = 1 mm, split "positive")
@@ -34,11 +32,8 @@ RUNS = {
 
 
 def run(work, names):
-    env = {**os.environ, "MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     for name in names:
-        sets = [x for s in RUNS[name] for x in ("--set", s)]
-        subprocess.run([sys.executable, "-m", "thinfilm", "run", "cases/nooru_mohamed_4b_czm.toml", "--threads", "1",
-                        "--force", *sets, "--out", str(work / name)], cwd=ROOT, env=env, check=True)
+        run_case("nooru_mohamed_4b_czm", RUNS[name], work / name)
 
 
 def crack_heights(points, alpha, xs=(40.0, 100.0, 160.0)):

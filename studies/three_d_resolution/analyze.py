@@ -18,15 +18,14 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
-import re
-import subprocess
-import sys
+import json
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[2]
+from benchmarks.bench_adaptive import time_report
+from studies.runs import run_case
+
 RESULTS = Path(__file__).resolve().parent / "results"
 
 #: name -> (case, the run's ``--set`` options). eps/h = 2 but for the finest prism (1.5).
@@ -49,39 +48,28 @@ THIRDS = {"whole": (-np.inf, np.inf), "y<-25": (-np.inf, -25.0), "middle": (-25.
 
 
 def run(work, names):
-    env = {**os.environ, "MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     work.mkdir(parents=True, exist_ok=True)
     for name in names:
         case, sets = RUNS[name]
-        sets = [x for s in sets for x in ("--set", s)]
-        with open(work / f"{name}.log", "w") as log:
-            subprocess.run(["/usr/bin/time", "-v", sys.executable, "-m", "thinfilm", "run", f"cases/{case}.toml",
-                            "--threads", "1", "--force", *sets, "--out", str(work / name)],
-                           cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT, check=True)
+        run_case(case, sets, work / name, log=work / f"{name}.log")
 
 
 def wall_and_memory(log):
-    """Wall time (min) and peak resident memory (GB) from a ``/usr/bin/time -v`` log; NaN if absent."""
-    text = log.read_text() if log.exists() else ""
-    wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): ([\d:.]+)", text)
-    rss = re.search(r"Maximum resident set size \(kbytes\): (\d+)", text)
-    minutes = float("nan")
-    if wall:
-        parts = [float(x) for x in wall.group(1).split(":")]
-        minutes = sum(v * 60.0 ** (len(parts) - 2 - i) for i, v in enumerate(parts))
-    return round(minutes, 1), round(int(rss.group(1)) / 1024**2, 2) if rss else float("nan")
+    """Wall time (min) and peak memory (GB) from the run's ``/usr/bin/time -v`` report."""
+    seconds, peak_gb = time_report(log)
+    return round(seconds / 60.0, 1), round(peak_gb, 2)
 
 
-def jump(res):
-    """The step the crack appeared at: the largest one-step growth of the surface energy."""
-    surface = np.asarray(res.steps["surface"])
-    return int(np.argmax(np.diff(surface))) + 1
+def jump(res, run):
+    """The step the crack appeared at: the run's first crack event (``summary.json``)."""
+    first = json.loads((Path(run) / "summary.json").read_text())["events"][0]["t"]
+    return int(np.flatnonzero(np.asarray(res.t) == first)[0])
 
 
 def lpanel_row(name, res, work):
     from fem3d.cracks import crack_through_depth
 
-    k, last = jump(res), res.n - 1
+    k, last = jump(res, work / name), res.n - 1
     p = res.parameters
     F = np.asarray(res.steps["force"])
     row = dict(run=name, eps=p["eps"], h=p["h"], nodes=res.discretization_at(last).points.shape[0],
@@ -105,7 +93,7 @@ def lpanel_row(name, res, work):
 def brokenshire_row(name, res, work, ax=None):
     from fem3d.cracks import trace_angles, twist
 
-    k, last = jump(res), res.n - 1
+    k, last = jump(res, work / name), res.n - 1
     p = res.parameters
     F = np.asarray(res.steps["force"])
     peak = int(np.argmax(F))

@@ -15,14 +15,13 @@ from __future__ import annotations
 
 import argparse
 import csv
-import os
-import subprocess
-import sys
+import json
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[2]
+from studies.runs import run_case
+
 RESULTS = Path(__file__).resolve().parent / "results"
 
 #: The holes of the beam (in): centre and radius (fem3d/specimens/three_point_bending.py).
@@ -48,11 +47,8 @@ RUNS = {
 
 
 def run(work, names):
-    env = {**os.environ, "MKL_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
     for name in names:
-        sets = [x for s in RUNS[name] for x in ("--set", s)]
-        subprocess.run([sys.executable, "-m", "thinfilm", "run", "cases/three_point_bending_II.toml", "--threads", "1",
-                        "--force", *sets, "--out", str(work / name)], cwd=ROOT, env=env, check=True)
+        run_case("three_point_bending_II", RUNS[name], work / name)
 
 
 def hole_gaps(points, alpha):
@@ -67,6 +63,12 @@ def x_at(points, alpha, y, half=0.05):
     """Mean x (in) of the broken nodes within ``half`` of height ``y``; NaN if none."""
     near = (alpha >= BROKEN) & (np.abs(points[:, 1] - y) < half)
     return float(points[near, 0].mean()) if near.any() else float("nan")
+
+
+def first_event(run):
+    """The load (in) of the run's first crack event (``summary.json``); NaN if none."""
+    events = json.loads((Path(run) / "summary.json").read_text())["events"]
+    return events[0]["t"] if events else float("nan")
 
 
 def summarize(work, names):
@@ -91,7 +93,7 @@ def summarize(work, names):
             gaps = hole_gaps(mesh.points, alpha)
             energy = float(res.steps["elastic"][last] + res.steps["surface"][last])
             rows.append(dict(run=name, nodes=mesh.points.shape[0], peak_lbf=round(float(F[peak]), 1),
-                             crack_at_in=round(float(res.t[peak + 1]), 4) if peak + 1 < res.n else float("nan"),
+                             crack_at_in=first_event(work / name),
                              **{f"gap_{h}_in": round(g, 3) for h, g in gaps.items()},
                              x_at_T_in=round(x_at(mesh.points, alpha, HOLES["T"][1]), 2),
                              x_at_top_in=round(x_at(mesh.points, alpha, 7.9, half=0.1), 2),
