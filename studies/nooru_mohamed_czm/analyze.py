@@ -12,13 +12,12 @@ of :data:`RUNS`, in ``WORK/<name>``. Writes ``results/summary.csv`` and ``result
 
 from __future__ import annotations
 
-import argparse
 import csv
 from pathlib import Path
 
 import numpy as np
 
-from studies.runs import run_case
+from studies.runs import run_case, study_main
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -89,15 +88,9 @@ def summarize(work, names):
         print(row)
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("work", nargs="?", type=Path, default=Path("/tmp/nm_czm"))
-    parser.add_argument("--run", action="store_true", help="make the runs first")
-    parser.add_argument("--only", nargs="*", default=list(RUNS), choices=list(RUNS), help="these runs only")
-    args = parser.parse_args()
-    if args.run:
-        run(args.work, args.only)
-    summarize(args.work, args.only)
+def main(argv=None):
+    study_main(__doc__.splitlines()[0], Path("/tmp/nm_czm"), RUNS, run, summarize,
+               duration=None, argv=argv)
 
 
 if __name__ == "__main__":

@@ -16,7 +16,6 @@ in ``WORK/<name>.log``). Writes ``results/lpanel_3d.csv``, ``results/brokenshire
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 from pathlib import Path
@@ -24,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.bench_adaptive import time_report
-from studies.runs import run_case
+from studies.runs import run_case, study_main
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -174,14 +173,8 @@ def sections(run, path):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("work", type=Path, nargs="?", default=Path("/tmp/three_d"))
-    parser.add_argument("--run", action="store_true", help="make the runs first (about 2 hours on one thread)")
-    parser.add_argument("--only", nargs="*", default=list(RUNS), choices=list(RUNS))
-    args = parser.parse_args(argv)
-    if args.run:
-        run(args.work, args.only)
-    summarize(args.work, args.only)
+    study_main(__doc__.splitlines()[0], Path("/tmp/three_d"), RUNS, run, summarize,
+               duration="about 2 hours on one thread", argv=argv)
 
 
 if __name__ == "__main__":

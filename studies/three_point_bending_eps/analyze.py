@@ -13,14 +13,13 @@ of :data:`RUNS`, in ``WORK/<name>``. Writes ``results/paths.csv`` and ``results/
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 from pathlib import Path
 
 import numpy as np
 
-from studies.runs import run_case
+from studies.runs import run_case, study_main
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -124,14 +123,8 @@ def summarize(work, names):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("work", type=Path, nargs="?", default=Path("/tmp/tpb_eps"))
-    parser.add_argument("--run", action="store_true", help="make the runs first (about 1 hour on one thread)")
-    parser.add_argument("--only", nargs="*", default=list(RUNS), choices=list(RUNS))
-    args = parser.parse_args(argv)
-    if args.run:
-        run(args.work, args.only)
-    summarize(args.work, args.only)
+    study_main(__doc__.splitlines()[0], Path("/tmp/tpb_eps"), RUNS, run, summarize,
+               duration="about 1 hour on one thread", argv=argv)
 
 
 if __name__ == "__main__":
